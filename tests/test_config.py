@@ -1,0 +1,128 @@
+"""Config validation: every bad value gets a one-line ConfigError naming field and value."""
+
+import math
+
+import pytest
+
+from vcavity.config import ConfigError, default_config, load, validate
+
+
+def _raw(**material):
+    base = {"distribution": "beckmann", "alpha": 0.5, "facet": "interfaced_lambertian", "kd": 0.5, "eta": 1.5}
+    base.update(material)
+    return {"material": {k: v for k, v in base.items() if v is not None}, "incidence": {"theta_i_deg": [10.0]}}
+
+
+def test_default_is_figure_7b():
+    cfg = default_config()
+    m = cfg.material
+    assert (m.distribution, m.alpha_x, m.alpha_y, m.kd, m.eta) == ("beckmann", 0.6, 0.6, 0.9, 1.5)
+    assert cfg.orders == (0, 1, 2, 3)
+    assert len(cfg.incidence) >= 3
+
+
+def test_degrees_become_radians_and_scalars_broadcast():
+    cfg = validate({"material": {"distribution": "ggx", "alpha_x": 0.1, "alpha_y": 0.3, "kd": 1.0},
+                    "incidence": {"theta_i_deg": [0, 45], "phi_i_deg": 90, "paths": [10, 20]}})
+    assert [d.theta_i for d in cfg.incidence] == [0.0, math.radians(45)]
+    assert [d.phi_i for d in cfg.incidence] == [math.radians(90)] * 2
+    assert [d.paths for d in cfg.incidence] == [10, 20]
+    assert not cfg.material.isotropic
+
+
+@pytest.mark.parametrize(
+    "material, field, value",
+    [
+        ({"alpha": 0.0}, "material.alpha", "0.0"),
+        ({"alpha": -1.0}, "material.alpha", "-1.0"),
+        ({"alpha": "rough"}, "material.alpha", "'rough'"),
+        ({"alpha": float("nan")}, "material.alpha", "nan"),
+        ({"kd": 1.0 + 1e-12}, "material.kd", "1.000000000001"),
+        ({"kd": -0.1}, "material.kd", "-0.1"),
+        ({"eta": 1.0 - 1e-12}, "material.eta", "0.999999999999"),
+        ({"eta": True}, "material.eta", "True"),
+        ({"distribution": "cauchy"}, "material.distribution", "'cauchy'"),
+        ({"facet": "velvet"}, "material.facet", "'velvet'"),
+        ({"roughness": 0.2}, "material.roughness", "0.2"),
+        ({"exponent": 20.0}, "material.exponent", "20.0"),
+        ({"alpha": 0.3, "alpha_x": 0.2}, "material.alpha_x", "0.2"),
+    ],
+)
+def test_bad_material_values(material, field, value):
+    with pytest.raises(ConfigError) as info:
+        validate(_raw(**material))
+    message = str(info.value)
+    assert "\n" not in message
+    assert message.startswith(f"{field} = {value}:"), message
+
+
+@pytest.mark.parametrize(
+    "incidence, field",
+    [
+        ({"theta_i_deg": [90.0]}, "incidence.theta_i_deg = 90.0"),
+        ({"theta_i_deg": [-1.0]}, "incidence.theta_i_deg = -1.0"),
+        ({"theta_i_deg": ["30"]}, "incidence.theta_i_deg = '30'"),
+        ({"theta_i_deg": [10.0], "paths": 0}, "incidence.paths = 0"),
+        ({"theta_i_deg": [10.0], "paths": 1.5e6}, "incidence.paths = 1500000.0"),
+        ({"theta_i_deg": [10.0, 20.0], "paths": [1, 2, 3]}, "incidence.paths = [1, 2, 3]"),
+        ({"theta_i_deg": [10.0], "psi": 3}, "incidence.psi = 3"),
+    ],
+)
+def test_bad_incidence(incidence, field):
+    raw = _raw()
+    raw["incidence"] = incidence
+    with pytest.raises(ConfigError, match="^" + field.replace("[", r"\[").replace(".", r"\.")):
+        validate(raw)
+
+
+@pytest.mark.parametrize(
+    "simulation, field",
+    [
+        ({"max_order": 0}, "simulation.max_order = 0"),
+        ({"max_order": 4, "max_bounces": 3}, "simulation.max_bounces = 3"),
+        ({"seed": -1}, "simulation.seed = -1"),
+        ({"sensor_resolution": 0}, "simulation.sensor_resolution = 0"),
+        ({"track_all_orders": "yes"}, "simulation.track_all_orders = 'yes'"),
+        ({"threads": 2}, "simulation.threads = 2"),
+    ],
+)
+def test_bad_simulation(simulation, field):
+    raw = _raw()
+    raw["simulation"] = simulation
+    with pytest.raises(ConfigError, match="^" + field.replace(".", r"\.")):
+        validate(raw)
+
+
+def test_mirror_rejects_il_parameters():
+    with pytest.raises(ConfigError, match=r"^material\.kd = 0\.5: not used by facet 'mirror'"):
+        validate(_raw(facet="mirror", eta=None))
+
+
+def test_missing_roughness_names_the_field():
+    with pytest.raises(ConfigError, match=r"^material\.alpha is missing"):
+        validate(_raw(alpha=None))
+    with pytest.raises(ConfigError, match=r"^material\.sigma is missing"):
+        validate(_raw(distribution="gaussian", alpha=None))
+
+
+def test_unreadable_and_invalid_toml(tmp_path):
+    with pytest.raises(ConfigError, match="cannot read it"):
+        load(tmp_path / "missing.toml")
+    bad = tmp_path / "bad.toml"
+    bad.write_text("[material\nalpha = 1\n")
+    with pytest.raises(ConfigError, match="invalid TOML") as info:
+        load(bad)
+    assert "\n" not in str(info.value)
+
+
+def test_output_path_is_relative_to_the_config(tmp_path):
+    (tmp_path / "sub").mkdir()
+    path = tmp_path / "sub" / "run.toml"
+    path.write_text('[material]\nalpha = 0.2\nkd = 1.0\n[output]\npath = "t.h5"\n')
+    assert load(path).output == tmp_path / "sub" / "t.h5"
+
+
+def test_round_trip_through_to_dict():
+    cfg = default_config()
+    assert cfg.replace(seed=5).seed == 5
+    assert cfg.replace(seed=5).material == cfg.material

@@ -1,0 +1,389 @@
+"""Run configuration: TOML in, validated frozen dataclasses out.
+
+All validation and unit conversion happens here, once, at the edge: angles are given in
+degrees in TOML (keys ending in ``_deg``) and stored in radians; everything downstream
+trusts these objects. Every error is a :class:`ConfigError` whose message is one line
+naming the field, the offending value and what is accepted.
+
+A run config has four tables::
+
+    [material]                     # the microsurface
+    distribution = "beckmann"      # beckmann | ggx | phong | gaussian
+    alpha = 0.6                    # beckmann/ggx: alpha, or alpha_x and alpha_y (> 0)
+    # exponent = 20.0              # phong: exponent alpha_p >= 0
+    # sigma = 0.3                  # gaussian: std. dev. of theta_m in radians (> 0)
+    facet = "interfaced_lambertian"  # or "mirror"
+    kd = 0.9                       # IL body albedo in [0, 1]  (0: specular dielectric)
+    eta = 1.5                      # IL relative index >= 1    (1: Lambertian facets)
+
+    [incidence]
+    theta_i_deg = [0, 30, 60, 80]  # polar angles of the light, degrees, in [0, 90)
+    phi_i_deg = 0                  # azimuths, degrees: one value or one per theta_i
+    paths = 10_000_000             # paths per direction: one value or one per theta_i
+
+    [simulation]
+    seed = 1                       # any integer >= 0
+    max_order = 3                  # bounce orders kept apart in the table (1..K)
+    max_bounces = 10000            # bounce cap; capped paths are reported as truncated
+    track_all_orders = true        # f_inf (order 0); false stops every path after K bounces
+    sensor_resolution = 57         # N: N x N equal-solid-angle cells (57 -> 3249)
+
+    [output]
+    path = "fig7.h5"               # optional; relative to the config file's folder
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+DISTRIBUTIONS = ("beckmann", "ggx", "phong", "gaussian")
+FACETS = ("interfaced_lambertian", "mirror")
+
+DEFAULT_PATHS = 10_000_000
+DEFAULT_MAX_ORDER = 3
+# GGX tails make deep grooves common: the truncated share falls like cap^-2 (physics.md
+# sec. 9: 1.6 % at alpha = 3 with a cap of 100), so 10^4 leaves ~1e-5 there while the
+# mean work per path hardly changes (the tail's expected bounce count converges).
+DEFAULT_MAX_BOUNCES = 10_000
+DEFAULT_SENSOR_RESOLUTION = 57
+MAX_SENSOR_RESOLUTION = 2048
+MAX_BOUNCES_LIMIT = 10_000_000
+
+
+class ConfigError(ValueError):
+    """Invalid run configuration; the message is one line naming field, value, and what is accepted."""
+
+
+@dataclass(frozen=True)
+class Material:
+    """Microsurface: a distribution of V-groove normals and a facet model.
+
+    Attributes
+    ----------
+    distribution : str
+        One of ``DISTRIBUTIONS``.
+    alpha_x, alpha_y : float or None
+        Beckmann / GGX roughness along x and y (W/H convention; equal when isotropic).
+    exponent : float or None
+        Phong exponent alpha_p (W eq. 30).
+    sigma : float or None
+        Gaussian (Oren-Nayar) standard deviation of theta_m, radians (IL eq. 13).
+    facet : str
+        ``"interfaced_lambertian"`` or ``"mirror"``.
+    kd, eta : float
+        IL body albedo in [0, 1] and relative index >= 1 (mirror: kd = 0, eta = 1, unused).
+    """
+
+    distribution: str
+    facet: str
+    alpha_x: float | None = None
+    alpha_y: float | None = None
+    exponent: float | None = None
+    sigma: float | None = None
+    kd: float = 0.0
+    eta: float = 1.0
+
+    @property
+    def isotropic(self) -> bool:
+        """True when the table cannot depend on phi_i."""
+        return self.alpha_x is None or self.alpha_x == self.alpha_y
+
+    def to_dict(self) -> dict[str, Any]:
+        """The fields that apply to this material (None fields dropped)."""
+        return {k: v for k, v in dataclasses.asdict(self).items() if v is not None}
+
+
+@dataclass(frozen=True)
+class Incidence:
+    """One incident direction with its path budget (angles in radians)."""
+
+    theta_i: float
+    phi_i: float
+    paths: int
+
+
+@dataclass(frozen=True)
+class RunConfig:
+    """A validated run: material, incident directions, simulation settings, output."""
+
+    material: Material
+    incidence: tuple[Incidence, ...]
+    seed: int = 1
+    max_order: int = DEFAULT_MAX_ORDER
+    max_bounces: int = DEFAULT_MAX_BOUNCES
+    track_all_orders: bool = True
+    sensor_resolution: int = DEFAULT_SENSOR_RESOLUTION
+    output: Path | None = None
+    source: str = "<built-in default>"
+    extra: dict = field(default_factory=dict, compare=False)
+
+    @property
+    def orders(self) -> tuple[int, ...]:
+        """The table's order axis: 0 (f_inf, when tracked) then 1..max_order."""
+        head = (0,) if self.track_all_orders else ()
+        return head + tuple(range(1, self.max_order + 1))
+
+    @property
+    def effective_max_bounces(self) -> int:
+        """Bounces a path may make: max_order when f_inf is not tracked."""
+        return self.max_bounces if self.track_all_orders else self.max_order
+
+    def to_dict(self) -> dict[str, Any]:
+        """The resolved config as plain TOML-like data (degrees, as a user writes it)."""
+        return {
+            "material": self.material.to_dict(),
+            "incidence": {
+                "theta_i_deg": [math.degrees(d.theta_i) for d in self.incidence],
+                "phi_i_deg": [math.degrees(d.phi_i) for d in self.incidence],
+                "paths": [d.paths for d in self.incidence],
+            },
+            "simulation": {
+                "seed": self.seed,
+                "max_order": self.max_order,
+                "max_bounces": self.max_bounces,
+                "track_all_orders": self.track_all_orders,
+                "sensor_resolution": self.sensor_resolution,
+            },
+            "output": {"path": str(self.output) if self.output else None},
+            "source": self.source,
+        }
+
+    def replace(self, **changes) -> "RunConfig":
+        """A copy with some fields changed (validated the same way)."""
+        return validate(_as_raw(dataclasses.replace(self, **changes)), source=self.source)
+
+
+# ---------------------------------------------------------------------------------------
+# validation helpers: each returns the clean value or raises a one-line ConfigError
+
+def _fmt(value: Any) -> str:
+    return repr(value)
+
+
+def _fail(field_name: str, value: Any, accepted: str) -> None:
+    raise ConfigError(f"{field_name} = {_fmt(value)}: {accepted}")
+
+
+def _number(field_name: str, value: Any) -> float:
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        _fail(field_name, value, "must be a number")
+    x = float(value)
+    if not math.isfinite(x):
+        _fail(field_name, value, "must be a finite number")
+    return x
+
+
+def _integer(field_name: str, value: Any, lo: int, hi: int | None = None) -> int:
+    if isinstance(value, bool) or not isinstance(value, int):
+        _fail(field_name, value, f"must be an integer >= {lo}" + (f" and <= {hi}" if hi else ""))
+    if value < lo or (hi is not None and value > hi):
+        _fail(field_name, value, f"must be an integer >= {lo}" + (f" and <= {hi}" if hi else ""))
+    return int(value)
+
+
+def _positive(field_name: str, value: Any) -> float:
+    x = _number(field_name, value)
+    if not x > 0.0:
+        _fail(field_name, value, "must be > 0")
+    return x
+
+
+def _check_keys(table_name: str, table: Any, allowed: tuple[str, ...]) -> dict:
+    if not isinstance(table, dict):
+        _fail(table_name, table, "must be a TOML table")
+    for key in table:
+        if key not in allowed:
+            raise ConfigError(
+                f"{table_name}.{key} = {_fmt(table[key])}: unknown key; accepted keys: {', '.join(allowed)}"
+            )
+    return table
+
+
+def _list_or_scalar(field_name: str, value: Any, n: int | None) -> list:
+    values = value if isinstance(value, list) else [value]
+    if len(values) == 0:
+        _fail(field_name, value, "must not be empty")
+    if n is not None and len(values) not in (1, n):
+        _fail(field_name, value, f"must be one value or a list of {n} (one per theta_i_deg)")
+    return values
+
+
+# ---------------------------------------------------------------------------------------
+
+_MATERIAL_KEYS = ("distribution", "alpha", "alpha_x", "alpha_y", "exponent", "sigma", "facet", "kd", "eta")
+_INCIDENCE_KEYS = ("theta_i_deg", "phi_i_deg", "paths")
+_SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sensor_resolution")
+_OUTPUT_KEYS = ("path",)
+_TOP_KEYS = ("material", "incidence", "simulation", "output")
+
+
+def _validate_material(raw: dict) -> Material:
+    raw = _check_keys("material", raw, _MATERIAL_KEYS)
+    dist = raw.get("distribution", "beckmann")
+    if dist not in DISTRIBUTIONS:
+        _fail("material.distribution", dist, f"accepted: {', '.join(DISTRIBUTIONS)}")
+    facet = raw.get("facet", "interfaced_lambertian")
+    if facet not in FACETS:
+        _fail("material.facet", facet, f"accepted: {', '.join(FACETS)}")
+
+    def forbid(keys: tuple[str, ...], why: str) -> None:
+        for key in keys:
+            if key in raw:
+                _fail(f"material.{key}", raw[key], why)
+
+    params: dict[str, float] = {}
+    if dist in ("beckmann", "ggx"):
+        forbid(("exponent", "sigma"), f"not a parameter of distribution {dist!r} (use alpha or alpha_x/alpha_y)")
+        if "alpha" in raw:
+            forbid(("alpha_x", "alpha_y"), "give either alpha (isotropic) or alpha_x and alpha_y, not both")
+            params["alpha_x"] = params["alpha_y"] = _positive("material.alpha", raw["alpha"])
+        elif "alpha_x" in raw or "alpha_y" in raw:
+            for key in ("alpha_x", "alpha_y"):
+                if key not in raw:
+                    raise ConfigError(f"material.{key} is missing: anisotropic roughness needs both alpha_x and alpha_y (> 0)")
+                params[key] = _positive(f"material.{key}", raw[key])
+        else:
+            raise ConfigError(f"material.alpha is missing: distribution {dist!r} needs alpha (> 0) or alpha_x and alpha_y")
+    elif dist == "phong":
+        forbid(("alpha", "alpha_x", "alpha_y", "sigma"), "not a parameter of distribution 'phong' (use exponent)")
+        if "exponent" not in raw:
+            raise ConfigError("material.exponent is missing: distribution 'phong' needs exponent (>= 0)")
+        e = _number("material.exponent", raw["exponent"])
+        if e < 0:
+            _fail("material.exponent", raw["exponent"], "must be >= 0")
+        params["exponent"] = e
+    else:
+        forbid(("alpha", "alpha_x", "alpha_y", "exponent"), "not a parameter of distribution 'gaussian' (use sigma, radians)")
+        if "sigma" not in raw:
+            raise ConfigError("material.sigma is missing: distribution 'gaussian' needs sigma (radians, > 0)")
+        params["sigma"] = _positive("material.sigma", raw["sigma"])
+
+    if facet == "mirror":
+        forbid(("kd", "eta"), "not used by facet 'mirror' (a perfect mirror, F = 1)")
+        return Material(distribution=dist, facet=facet, **params)
+    kd = _number("material.kd", raw.get("kd", 0.0))
+    if not 0.0 <= kd <= 1.0:
+        _fail("material.kd", raw["kd"], "must be in [0, 1]")
+    eta = _number("material.eta", raw.get("eta", 1.5))
+    if not eta >= 1.0:
+        _fail("material.eta", raw["eta"], "must be >= 1 (relative index of the facet's dielectric interface)")
+    return Material(distribution=dist, facet=facet, kd=kd, eta=eta, **params)
+
+
+def _validate_incidence(raw: dict) -> tuple[Incidence, ...]:
+    raw = _check_keys("incidence", raw, _INCIDENCE_KEYS)
+    thetas = _list_or_scalar("incidence.theta_i_deg", raw.get("theta_i_deg", [0.0]), None)
+    n = len(thetas)
+    phis = _list_or_scalar("incidence.phi_i_deg", raw.get("phi_i_deg", 0.0), n)
+    paths = _list_or_scalar("incidence.paths", raw.get("paths", DEFAULT_PATHS), n)
+    out = []
+    for k in range(n):
+        t = _number("incidence.theta_i_deg", thetas[k])
+        if not 0.0 <= t < 90.0:
+            _fail("incidence.theta_i_deg", thetas[k], "must be in [0, 90) degrees")
+        p = _number("incidence.phi_i_deg", phis[k if len(phis) > 1 else 0])
+        count = _integer("incidence.paths", paths[k if len(paths) > 1 else 0], 1, 2**62)
+        out.append(Incidence(theta_i=math.radians(t), phi_i=math.radians(p), paths=count))
+    return tuple(out)
+
+
+def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> RunConfig:
+    """Validate a parsed TOML document and return a :class:`RunConfig`.
+
+    Raises
+    ------
+    ConfigError
+        On any invalid, missing or unknown field (one-line message).
+    """
+    raw = _check_keys("config", raw, _TOP_KEYS)
+    material = _validate_material(raw.get("material", {}))
+    incidence = _validate_incidence(raw.get("incidence", {}))
+    sim = _check_keys("simulation", raw.get("simulation", {}), _SIMULATION_KEYS)
+    seed = _integer("simulation.seed", sim.get("seed", 1), 0, 2**64 - 1)
+    max_order = _integer("simulation.max_order", sim.get("max_order", DEFAULT_MAX_ORDER), 1, 1000)
+    max_bounces = _integer("simulation.max_bounces", sim.get("max_bounces", DEFAULT_MAX_BOUNCES), 1, MAX_BOUNCES_LIMIT)
+    if max_bounces < max_order:
+        _fail("simulation.max_bounces", max_bounces, f"must be >= simulation.max_order ({max_order})")
+    track = sim.get("track_all_orders", True)
+    if not isinstance(track, bool):
+        _fail("simulation.track_all_orders", track, "must be true or false")
+    resolution = _integer(
+        "simulation.sensor_resolution", sim.get("sensor_resolution", DEFAULT_SENSOR_RESOLUTION), 1, MAX_SENSOR_RESOLUTION
+    )
+    out = _check_keys("output", raw.get("output", {}), _OUTPUT_KEYS)
+    output = None
+    if out.get("path") is not None:
+        if not isinstance(out["path"], str) or not out["path"]:
+            _fail("output.path", out["path"], "must be a non-empty string (a file path)")
+        output = Path(out["path"])
+        if base_dir is not None and not output.is_absolute():
+            output = base_dir / output
+    return RunConfig(
+        material=material,
+        incidence=incidence,
+        seed=seed,
+        max_order=max_order,
+        max_bounces=max_bounces,
+        track_all_orders=track,
+        sensor_resolution=resolution,
+        output=output,
+        source=source,
+    )
+
+
+def load(path: str | Path) -> RunConfig:
+    """Read and validate a TOML run config.
+
+    Raises
+    ------
+    ConfigError
+        Unreadable file, TOML syntax error (with line), or invalid content.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except OSError as exc:
+        raise ConfigError(f"config file {str(path)!r}: cannot read it ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise ConfigError(f"config file {str(path)!r}: not UTF-8 text; a TOML file is expected") from None
+    try:
+        raw = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"config file {str(path)!r}: invalid TOML: {exc}") from None
+    return validate(raw, source=str(path), base_dir=path.parent)
+
+
+#: The built-in default run: the material of IL paper figure 7(b) (Beckmann alpha = 0.6,
+#: kd = 0.9, eta = 1.5) at a few incident angles.
+DEFAULT_RAW: dict[str, Any] = {
+    "material": {"distribution": "beckmann", "alpha": 0.6, "facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5},
+    "incidence": {"theta_i_deg": [0.0, 30.0, 60.0, 80.0], "phi_i_deg": 0.0, "paths": DEFAULT_PATHS},
+    "simulation": {"seed": 1, "max_order": DEFAULT_MAX_ORDER},
+}
+
+
+def default_config() -> RunConfig:
+    """The built-in default run (IL paper fig. 7b material)."""
+    return validate(DEFAULT_RAW, source="<built-in default: IL paper fig. 7b>")
+
+
+def _as_raw(cfg: RunConfig) -> dict[str, Any]:
+    d = cfg.to_dict()
+    d.pop("source")
+    mat = dict(d["material"])
+    if "alpha_x" in mat:
+        if mat["alpha_x"] == mat["alpha_y"]:
+            mat["alpha"] = mat.pop("alpha_x")
+            mat.pop("alpha_y")
+    if mat.get("facet") == "mirror":
+        mat.pop("kd", None)
+        mat.pop("eta", None)
+    d["material"] = mat
+    if d["output"]["path"] is None:
+        d["output"] = {}
+    return d

@@ -1,0 +1,197 @@
+"""Masking/shadowing functions shared by every microfacet distribution.
+
+Conventions (physics.md sec. 1): macrosurface normal ``n = (0, 0, 1)``, all
+directions point away from the surface, vectors are passed as three floats.
+
+V-cavity (Torrance-Sparrow) masking is a function of the directions only
+(physics.md sec. 3, H eq. 49, IL eq. 14).  Smith masking depends on the
+distribution through its ``Lambda`` (each distribution module provides
+``smith_lambda``); the Smith forms below take the Lambda values and leave the
+sidedness factors ``chi+(v.m)`` to the caller.
+
+Every function here is ``numba.njit(cache=True)``; the ``*_many`` variants loop
+over ``(N, 3)`` float64 arrays for analytic (NumPy-side) code.
+"""
+
+import numba
+import numpy as np
+
+
+@numba.njit(cache=True)
+def g1_vcavity(vx, vy, vz, mx, my, mz):
+    """V-cavity masking ``G1_V(v, m)`` (H eq. 49, physics.md sec. 3).
+
+    ``G1_V = chi+(v.m) max(0, min(1, 2 (m.n)(v.n) / (v.m)))``.  The outer
+    ``max(0, .)`` (IL eq. 14) makes directions below the macrosurface masked.
+
+    Parameters
+    ----------
+    vx, vy, vz : float
+        Unit direction ``v`` (pointing away from the surface).
+    mx, my, mz : float
+        Unit microfacet normal ``m``.
+
+    Returns
+    -------
+    float
+        Fraction of the facet ``m`` visible from ``v``, in ``[0, 1]``; 0 when
+        ``v`` is backfacing (``v.m <= 0``).
+    """
+    vm = vx * mx + vy * my + vz * mz
+    if vm <= 0.0:
+        return 0.0
+    g = 2.0 * mz * vz / vm
+    if g >= 1.0:
+        return 1.0
+    if g <= 0.0:
+        return 0.0
+    return g
+
+
+@numba.njit(cache=True)
+def g2_vcavity(ix, iy, iz, ox, oy, oz, mx, my, mz):
+    """V-cavity masking-shadowing ``G2_V = min(G1_V(i, m), G1_V(o, m))`` (IL eq. 14).
+
+    Parameters
+    ----------
+    ix, iy, iz : float
+        Unit direction toward the light.
+    ox, oy, oz : float
+        Unit direction toward the viewer.
+    mx, my, mz : float
+        Unit microfacet normal.
+
+    Returns
+    -------
+    float
+        Joint visibility in ``[0, 1]`` (physics.md sec. 3).
+    """
+    gi = g1_vcavity(ix, iy, iz, mx, my, mz)
+    go = g1_vcavity(ox, oy, oz, mx, my, mz)
+    return gi if gi < go else go
+
+
+@numba.njit(cache=True)
+def g1_smith(lambda_v):
+    """Smith masking ``G1_S = 1 / (1 + Lambda(v))`` (H eq. 43).
+
+    The sidedness factor ``chi+(v.m)`` is NOT included: the caller multiplies
+    by it.  ``lambda_v = inf`` (grazing, or a distribution whose Smith Lambda
+    diverges) gives 0.
+
+    Parameters
+    ----------
+    lambda_v : float
+        Smith ``Lambda`` of the direction, from ``<distribution>.smith_lambda``.
+
+    Returns
+    -------
+    float
+        ``1 / (1 + lambda_v)``.
+    """
+    return 1.0 / (1.0 + lambda_v)
+
+
+@numba.njit(cache=True)
+def g2_smith_separable(lambda_i, lambda_o):
+    """Separable Smith shadowing-masking ``G1_S(i) G1_S(o)`` (H eq. 98).
+
+    ``chi+(i.m) chi+(o.m)`` is left to the caller.
+
+    Parameters
+    ----------
+    lambda_i, lambda_o : float
+        Smith ``Lambda`` of the incident and outgoing directions.
+
+    Returns
+    -------
+    float
+        ``1 / ((1 + lambda_i)(1 + lambda_o))``.
+    """
+    return 1.0 / ((1.0 + lambda_i) * (1.0 + lambda_o))
+
+
+@numba.njit(cache=True)
+def g2_smith_height_correlated(lambda_i, lambda_o):
+    """Height-correlated Smith shadowing-masking (H eq. 99).
+
+    ``G2 = 1 / (1 + Lambda(i) + Lambda(o))``; ``chi+(i.m) chi+(o.m)`` is left
+    to the caller.
+
+    Parameters
+    ----------
+    lambda_i, lambda_o : float
+        Smith ``Lambda`` of the incident and outgoing directions.
+
+    Returns
+    -------
+    float
+        ``1 / (1 + lambda_i + lambda_o)``.
+    """
+    return 1.0 / (1.0 + lambda_i + lambda_o)
+
+
+@numba.njit(cache=True)
+def g1_vcavity_many(v, m):
+    """Vectorised :func:`g1_vcavity` over rows (H eq. 49).
+
+    Parameters
+    ----------
+    v, m : ndarray, shape (N, 3)
+        Unit directions and unit microfacet normals, row by row.  To use one
+        direction for many normals pass ``np.broadcast_to(v, m.shape)``.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``G1_V(v[k], m[k])``.
+    """
+    n = m.shape[0]
+    out = np.empty(n)
+    for k in range(n):
+        out[k] = g1_vcavity(v[k, 0], v[k, 1], v[k, 2], m[k, 0], m[k, 1], m[k, 2])
+    return out
+
+
+@numba.njit(cache=True)
+def g2_vcavity_many(i, o, m):
+    """Vectorised :func:`g2_vcavity` over rows (IL eq. 14).
+
+    Parameters
+    ----------
+    i, o, m : ndarray, shape (N, 3)
+        Unit incident directions, outgoing directions and microfacet normals.
+
+    Returns
+    -------
+    ndarray, shape (N,)
+        ``G2_V(i[k], o[k], m[k])``.
+    """
+    n = m.shape[0]
+    out = np.empty(n)
+    for k in range(n):
+        out[k] = g2_vcavity(
+            i[k, 0], i[k, 1], i[k, 2], o[k, 0], o[k, 1], o[k, 2], m[k, 0], m[k, 1], m[k, 2]
+        )
+    return out
+
+
+@numba.njit(cache=True)
+def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
+    """Unit normal from ``(tan theta_m, cos phi_m, sin phi_m)`` (physics.md sec. 1).
+
+    Parameters
+    ----------
+    tan_theta : float
+        ``tan theta_m >= 0`` (finite).
+    cos_phi, sin_phi : float
+        Unit azimuth pair.
+
+    Returns
+    -------
+    mx, my, mz : float
+        ``(sin theta cos phi, sin theta sin phi, cos theta)``.
+    """
+    mz = 1.0 / np.sqrt(1.0 + tan_theta * tan_theta)
+    sin_theta = tan_theta * mz
+    return sin_theta * cos_phi, sin_theta * sin_phi, mz

@@ -1,0 +1,381 @@
+"""Equal-solid-angle sensor over the upper hemisphere (physics.md section 6).
+
+The hemisphere is partitioned into ``N x N`` cells: the square ``[-1, 1]^2`` is cut
+into ``N x N`` equal squares, mapped to the unit disk by the Shirley-Chiu concentric
+map and lifted to the hemisphere by ``z = 1 - r^2``,
+``(x, y) = (d_x, d_y) sqrt(2 - r^2)`` (``(d_x, d_y)`` the disk point, ``r`` its
+radius).  Both steps preserve area up to a constant, ``dω = (π/2) du dv``
+(physics.md section 9, "Projected solid angle of a cell"), so every cell subtends
+``2π/N^2`` sr and binning a direction is O(1).
+
+Cell ``c = iy * N + ix`` covers ``u ∈ [-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and
+``v ∈ [-1 + 2 iy/N, -1 + 2 (iy+1)/N]``.
+
+The jitted scalar functions (:func:`square_to_hemisphere`,
+:func:`hemisphere_to_square`, :func:`direction_to_cell`) are meant to be called from
+the simulation kernels; :class:`EqualAreaSensor` bins with exactly the same code.
+"""
+
+from functools import cached_property
+
+import numba
+import numpy as np
+
+QUARTER_PI = 0.25 * np.pi
+FOUR_OVER_PI = 4.0 / np.pi
+
+__all__ = [
+    "EqualAreaSensor",
+    "direction_to_cell",
+    "hemisphere_to_square",
+    "square_to_hemisphere",
+]
+
+
+@numba.njit(cache=True)
+def square_to_hemisphere(u, v):
+    """Map a point of the square ``[-1, 1]^2`` to a unit direction with ``z >= 0``.
+
+    Shirley-Chiu concentric square-to-disk map followed by the area-preserving
+    lift ``z = 1 - r^2``, ``(x, y) = (d_x, d_y) sqrt(2 - r^2)`` (physics.md
+    section 6).  Since ``r = max(|u|, |v|)``, ``z = 1 - max(u^2, v^2)``
+    (physics.md section 9).
+
+    Parameters
+    ----------
+    u, v : float
+        Square coordinates in ``[-1, 1]``.
+
+    Returns
+    -------
+    x, y, z : float
+        Unit direction in the upper hemisphere.
+    """
+    # Branch order keeps every division away from zero (no exceptions in jitted
+    # code); ties |u| == |v| take the u-branch, as in hemisphere_to_square.
+    if abs(v) > abs(u):
+        radius = v  # signed disk radius
+        angle = QUARTER_PI * (u / v)  # (π/2 - φ) for the ±y wedge
+        disk_x = radius * np.sin(angle)
+        disk_y = radius * np.cos(angle)
+    elif u != 0.0:
+        radius = u
+        angle = QUARTER_PI * (v / u)  # disk angle relative to the ±x axis
+        disk_x = radius * np.cos(angle)
+        disk_y = radius * np.sin(angle)
+    else:  # u == v == 0: the pole
+        return 0.0, 0.0, 1.0
+    radius_sq = radius * radius
+    lift = np.sqrt(2.0 - radius_sq)
+    return disk_x * lift, disk_y * lift, 1.0 - radius_sq
+
+
+@numba.njit(cache=True)
+def hemisphere_to_square(x, y, z):
+    """Inverse of :func:`square_to_hemisphere` for upper-hemisphere unit vectors.
+
+    Uses ``r^2 = (x^2 + y^2) / (1 + z)`` (equal to ``1 - z`` on the unit sphere,
+    physics.md section 6) which stays accurate near the pole, and the concentric
+    inverse with ``atan`` of a ratio in ``[-1, 1]`` instead of ``atan2``.
+    ``z`` is clamped to ``[0, 1]`` and ``r^2`` to ``[0, 1]``, so slightly
+    non-normalised input (a few ulp) and horizon directions are tolerated.
+
+    Parameters
+    ----------
+    x, y, z : float
+        Direction with ``z >= 0`` (approximately unit length).
+
+    Returns
+    -------
+    u, v : float
+        Square coordinates in ``[-1, 1]``.
+    """
+    if z < 0.0:
+        z = 0.0
+    elif z > 1.0:
+        z = 1.0
+    radius_sq = (x * x + y * y) / (1.0 + z)
+    if radius_sq > 1.0:
+        radius_sq = 1.0
+    radius = np.sqrt(radius_sq)
+    abs_x = abs(x)
+    abs_y = abs(y)
+    # Branch order keeps every division away from zero (no exceptions in jitted
+    # code); ties |x| == |y| take the x-branch, as in square_to_hemisphere.
+    if abs_y > abs_x:
+        v = radius if y > 0.0 else -radius
+        u = v * (FOUR_OVER_PI * np.arctan(x / y))  # ratio in [-1, 1]
+    elif abs_x > 0.0:
+        u = radius if x > 0.0 else -radius
+        v = u * (FOUR_OVER_PI * np.arctan(y / x))
+    else:  # pole, or a degenerate / NaN vector: centre of the square
+        return 0.0, 0.0
+    return u, v
+
+
+@numba.njit(cache=True)
+def _square_coordinate_to_bin(t, resolution):
+    """Bin of square coordinate ``t ∈ [-1, 1]`` among ``resolution`` equal bins.
+
+    ``floor((t + 1) / 2 * N)`` clamped to ``[0, N - 1]``; the clamping is done on
+    the float so that NaN, ``±1`` and out-of-range values all map to a valid bin.
+    """
+    scaled = (t + 1.0) * 0.5 * resolution
+    if not scaled >= 0.0:  # also catches NaN
+        return 0
+    if scaled >= resolution:
+        return resolution - 1
+    return int(np.floor(scaled))
+
+
+@numba.njit(cache=True)
+def direction_to_cell(x, y, z, resolution):
+    """Sensor cell index ``iy * N + ix`` of an upper-hemisphere direction.
+
+    ``(u, v) = hemisphere_to_square(x, y, z)``, ``ix = floor((u + 1)/2 N)`` and
+    ``iy = floor((v + 1)/2 N)``, each clamped to ``[0, N - 1]`` (physics.md
+    section 6).  Deterministic; never returns an index outside ``[0, N^2)``.
+
+    Parameters
+    ----------
+    x, y, z : float
+        Direction with ``z >= 0`` (approximately unit length).
+    resolution : int
+        ``N``, the number of cells along each side of the square.
+
+    Returns
+    -------
+    int
+        Cell index in ``[0, N^2)``.
+    """
+    u, v = hemisphere_to_square(x, y, z)
+    ix = _square_coordinate_to_bin(u, resolution)
+    iy = _square_coordinate_to_bin(v, resolution)
+    return np.int64(iy) * resolution + ix
+
+
+@numba.njit(cache=True)
+def _directions_to_cells(directions, resolution):
+    """Loop :func:`direction_to_cell` over the rows of an ``(M, 3)`` array."""
+    n_directions = directions.shape[0]
+    cells = np.empty(n_directions, dtype=np.int64)
+    for k in range(n_directions):
+        cells[k] = direction_to_cell(
+            directions[k, 0], directions[k, 1], directions[k, 2], resolution
+        )
+    return cells
+
+
+@numba.njit(cache=True)
+def _squares_to_hemisphere(u, v):
+    """Loop :func:`square_to_hemisphere` over two 1-D arrays -> ``(M, 3)``."""
+    n_points = u.shape[0]
+    directions = np.empty((n_points, 3))
+    for k in range(n_points):
+        x, y, z = square_to_hemisphere(u[k], v[k])
+        directions[k, 0] = x
+        directions[k, 1] = y
+        directions[k, 2] = z
+    return directions
+
+
+def _integral_one_minus_v_sq(lower, upper):
+    """``∫_lower^upper (1 - v^2) dv`` written to avoid cancellation near ``|v| = 1``."""
+    return (upper - lower) * (1.0 - (upper * upper + upper * lower + lower * lower) / 3.0)
+
+
+def _inner_cos_integral(u, v_lower, v_upper):
+    """``∫_{v_lower}^{v_upper} (1 - max(u^2, v^2)) dv`` exactly (vectorised over arrays).
+
+    Where ``|v| < |u|`` the integrand is ``1 - u^2``, elsewhere ``1 - v^2``
+    (physics.md section 9).
+    """
+    abs_u = np.abs(u)
+    flat_lower = np.maximum(v_lower, -abs_u)  # [flat_lower, flat_upper] = {|v| < |u|}
+    flat_upper = np.minimum(v_upper, abs_u)
+    has_flat = flat_upper > flat_lower
+    flat_part = np.where(
+        has_flat, (1.0 - abs_u) * (1.0 + abs_u) * (flat_upper - flat_lower), 0.0
+    )
+    below_upper = np.where(has_flat, flat_lower, v_upper)  # |v| >= |u| below the flat part
+    above_lower = np.where(has_flat, flat_upper, v_upper)  # ... and above it
+    return (
+        flat_part
+        + _integral_one_minus_v_sq(v_lower, below_upper)
+        + _integral_one_minus_v_sq(above_lower, v_upper)
+    )
+
+
+def _projected_integral_over_rectangles(u_lower, u_upper, v_lower, v_upper):
+    """``∫∫ (1 - max(u^2, v^2)) du dv`` over rectangles, exactly (physics.md section 9).
+
+    For fixed ``u`` the ``v``-integral is a polynomial of degree <= 3 in ``u`` on
+    each interval between the breakpoints ``u ∈ {±v_lower, ±v_upper, 0}``; two-point
+    Gauss-Legendre on each such piece is therefore exact.
+    """
+    u_lower = np.asarray(u_lower, dtype=np.float64)
+    u_upper = np.asarray(u_upper, dtype=np.float64)
+    candidates = np.stack(
+        [u_lower, u_upper, v_lower, -v_lower, v_upper, -v_upper, np.zeros_like(u_lower)],
+        axis=-1,
+    )
+    breakpoints = np.sort(np.clip(candidates, u_lower[:, None], u_upper[:, None]), axis=-1)
+    piece_lower = breakpoints[:, :-1]
+    piece_upper = breakpoints[:, 1:]
+    half_width = 0.5 * (piece_upper - piece_lower)
+    midpoint = 0.5 * (piece_upper + piece_lower)
+    offset = half_width / np.sqrt(3.0)  # 2-point Gauss-Legendre: nodes ±1/√3, weights 1
+    v_lo = np.asarray(v_lower, dtype=np.float64)[:, None]
+    v_hi = np.asarray(v_upper, dtype=np.float64)[:, None]
+    piece_integrals = half_width * (
+        _inner_cos_integral(midpoint - offset, v_lo, v_hi)
+        + _inner_cos_integral(midpoint + offset, v_lo, v_hi)
+    )
+    return piece_integrals.sum(axis=-1)
+
+
+class EqualAreaSensor:
+    """Equal-solid-angle partition of the upper hemisphere (physics.md section 6).
+
+    Parameters
+    ----------
+    resolution : int, optional
+        ``N``; the sensor has ``N * N`` cells of ``2π/N^2`` sr each.  Default 57
+        (3249 cells).
+
+    Raises
+    ------
+    ValueError
+        If ``resolution`` is not an integer >= 1.
+    """
+
+    partition = "shirley-chiu-concentric"
+
+    def __init__(self, resolution: int = 57):
+        if isinstance(resolution, (bool, np.bool_)) or not isinstance(
+            resolution, (int, np.integer)
+        ):
+            raise ValueError(f"resolution must be an int >= 1, got {resolution!r}")
+        if resolution < 1:
+            raise ValueError(f"resolution must be an int >= 1, got {resolution!r}")
+        self.resolution = int(resolution)
+        self.n_cells = self.resolution * self.resolution
+
+    def __repr__(self):
+        return f"EqualAreaSensor(resolution={self.resolution})"
+
+    def __eq__(self, other):
+        if not isinstance(other, EqualAreaSensor):
+            return NotImplemented
+        return self.partition == other.partition and self.resolution == other.resolution
+
+    def __hash__(self):
+        return hash((self.partition, self.resolution))
+
+    def _cell_bounds(self, cells):
+        """Square-coordinate bounds ``(u_lower, u_upper, v_lower, v_upper)`` of cells."""
+        cells = np.asarray(cells, dtype=np.int64)
+        width = 2.0 / self.resolution
+        ix = cells % self.resolution
+        iy = cells // self.resolution
+        return -1.0 + width * ix, -1.0 + width * (ix + 1), -1.0 + width * iy, -1.0 + width * (iy + 1)
+
+    def _check_cells(self, cells):
+        if cells is None:
+            return np.arange(self.n_cells, dtype=np.int64)
+        cells = np.asarray(cells)
+        if cells.ndim != 1 or not np.issubdtype(cells.dtype, np.integer):
+            raise ValueError("cells must be a 1-D array of integer cell indices")
+        if cells.size and (cells.min() < 0 or cells.max() >= self.n_cells):
+            raise ValueError(f"cell indices must lie in [0, {self.n_cells})")
+        return cells.astype(np.int64)
+
+    def cell_index(self, directions):
+        """Cell index of each direction, binned exactly as the simulation kernel does.
+
+        Parameters
+        ----------
+        directions : array_like, shape (..., 3)
+            Upper-hemisphere directions (approximately unit length).
+
+        Returns
+        -------
+        numpy.ndarray of int64, shape (...)
+            Cell indices in ``[0, n_cells)``.
+        """
+        directions = np.asarray(directions, dtype=np.float64)
+        if directions.ndim < 1 or directions.shape[-1] != 3:
+            raise ValueError(f"directions must have shape (..., 3), got {directions.shape}")
+        flat = np.ascontiguousarray(directions.reshape(-1, 3))
+        return _directions_to_cells(flat, self.resolution).reshape(directions.shape[:-1])
+
+    @cached_property
+    def cell_center(self):
+        """``(n_cells, 3)`` directions: the centre of each square cell, mapped."""
+        u_lower, u_upper, v_lower, v_upper = self._cell_bounds(np.arange(self.n_cells))
+        centers = _squares_to_hemisphere(0.5 * (u_lower + u_upper), 0.5 * (v_lower + v_upper))
+        centers.flags.writeable = False
+        return centers
+
+    @cached_property
+    def cell_solid_angle(self):
+        """``(n_cells,)`` solid angle of each cell, all ``2π/N^2`` sr."""
+        solid_angle = np.full(self.n_cells, 2.0 * np.pi / self.n_cells)
+        solid_angle.flags.writeable = False
+        return solid_angle
+
+    @cached_property
+    def cell_projected_solid_angle(self):
+        """``(n_cells,)`` projected solid angle ``Ω⊥_c = ∫_c cos θ dω``, exact.
+
+        ``Ω⊥_c = (π/2) ∫∫_cell (1 - max(u^2, v^2)) du dv`` (physics.md section 9),
+        integrated exactly (piecewise polynomial).  Sums to ``π``.
+        """
+        bounds = self._cell_bounds(np.arange(self.n_cells))
+        projected = 0.5 * np.pi * _projected_integral_over_rectangles(*bounds)
+        projected.flags.writeable = False
+        return projected
+
+    def subcell_quadrature(self, n_sub, cells=None):
+        """Gauss-Legendre quadrature over sensor cells in solid angle.
+
+        Tensor-product ``n_sub x n_sub`` Gauss-Legendre nodes in ``(u, v)`` on each
+        cell, mapped to the hemisphere; weights include ``dω = (π/2) du dv``
+        (physics.md section 9), so they sum to the cell's solid angle.  Use it to
+        average a model over a cell the way the sensor does (physics.md section 6).
+
+        Parameters
+        ----------
+        n_sub : int
+            Nodes per cell along each of ``u`` and ``v`` (>= 1).
+        cells : array_like of int, optional
+            Cell indices to build the quadrature for; default all cells.
+
+        Returns
+        -------
+        directions : numpy.ndarray, shape (C, n_sub * n_sub, 3)
+            Quadrature directions per cell.
+        solid_angle_weights : numpy.ndarray, shape (C, n_sub * n_sub)
+            Weights in sr; each row sums to ``2π/N^2``.
+        """
+        if isinstance(n_sub, (bool, np.bool_)) or not isinstance(n_sub, (int, np.integer)):
+            raise ValueError(f"n_sub must be an int >= 1, got {n_sub!r}")
+        if n_sub < 1:
+            raise ValueError(f"n_sub must be an int >= 1, got {n_sub!r}")
+        cells = self._check_cells(cells)
+        nodes, weights = np.polynomial.legendre.leggauss(int(n_sub))
+        u_lower, u_upper, v_lower, v_upper = self._cell_bounds(cells)
+        half_width = 1.0 / self.resolution  # half of the cell side 2/N
+        u_nodes = 0.5 * (u_lower + u_upper)[:, None] + half_width * nodes[None, :]
+        v_nodes = 0.5 * (v_lower + v_upper)[:, None] + half_width * nodes[None, :]
+        # node k = j * n_sub + i  <->  (u_i, v_j)
+        u_grid = np.broadcast_to(u_nodes[:, None, :], (cells.size, n_sub, n_sub))
+        v_grid = np.broadcast_to(v_nodes[:, :, None], (cells.size, n_sub, n_sub))
+        directions = _squares_to_hemisphere(
+            np.ascontiguousarray(u_grid).reshape(-1), np.ascontiguousarray(v_grid).reshape(-1)
+        ).reshape(cells.size, n_sub * n_sub, 3)
+        weight_2d = (weights[:, None] * weights[None, :]).reshape(-1)  # [j, i] order
+        solid_angle_weights = np.broadcast_to(
+            0.5 * np.pi * half_width * half_width * weight_2d, (cells.size, n_sub * n_sub)
+        ).copy()
+        return directions, solid_angle_weights
