@@ -27,6 +27,7 @@ from vcavity.kernels.trace import (
     STAT_DEGENERATE,
     STAT_MAX_BOUNCES,
     STAT_TRUNCATED,
+    fresnel_brackets,
     get_kernel,
 )
 from vcavity.microfacet import DISTRIBUTIONS
@@ -110,6 +111,7 @@ class Simulation:
         self.dist_kind, self.params = distribution_params(m)
         self.facet_mode = facet_mode(m)
         self.emergence_prob = 1.0 if m.facet == "mirror" else float(emergence_probability(m.kd, m.eta))
+        self.fresnel_brackets = fresnel_brackets(m.eta)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
         self.kernel = get_kernel(self.dist_kind, self.facet_mode)
         self.compile_time_s = 0.0
@@ -121,7 +123,7 @@ class Simulation:
     def _call(self, incident, key, first_block, n_blocks, n_paths):
         c = self.config
         return self.kernel(incident, key, first_block, n_blocks, n_paths, self.params,
-                           float(c.material.eta), self.emergence_prob, c.effective_max_bounces,
+                           float(c.material.eta), self.fresnel_brackets, self.emergence_prob, c.effective_max_bounces,
                            c.max_order, c.sensor_resolution, self.threads)
 
     def compile(self) -> float:

@@ -13,14 +13,16 @@ and merging per-thread histograms is exact in any order.
 
 from __future__ import annotations
 
+import hashlib
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit, prange
 
 from vcavity.facet.fresnel import fresnel_dielectric
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface
-from vcavity.microfacet import beckmann, gaussian, ggx, phong
+from vcavity.kernels.sampling import groove_from_disk
 from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
 from vcavity.sensor import direction_to_cell
 
@@ -40,19 +42,75 @@ N_STATS = 4
 
 
 @njit(cache=True, inline="always")
-def _sample_groove(dist_kind, u1, u2, params):
-    """(tan theta_m, cos phi_m, sin phi_m) with pdf D(m)(m.n) (physics.md sec. 2)."""
-    if dist_kind == beckmann.KIND:
-        return beckmann.sample(u1, u2, params)
-    elif dist_kind == ggx.KIND:
-        return ggx.sample(u1, u2, params)
-    elif dist_kind == phong.KIND:
-        return phong.sample(u1, u2, params)
-    return gaussian.sample(u1, u2, params)
+def _sample_groove(state, dist_kind, params):
+    """Advance ``state``; return (state, tan theta_m, cos phi_m, sin phi_m).
+
+    The groove normal has pdf D(m)(m.n) (physics.md sec. 2), sampled from a uniform
+    point of the unit disk (see kernels/sampling.py: no trig).
+    """
+    while True:
+        state, ua = next_uniform(state)
+        state, ub = next_uniform(state)
+        a = 2.0 * ua - 1.0
+        b = 2.0 * ub - 1.0
+        s = a * a + b * b
+        if 0.0 < s < 1.0:
+            tan_m, cos_phi, sin_phi = groove_from_disk(dist_kind, a, b, s, params)
+            return state, tan_m, cos_phi, sin_phi
+
+
+#: Bins of the Fresnel bracketing table over cos in [0, 1].
+FRESNEL_BINS = 256
+
+
+def fresnel_brackets(eta: float) -> np.ndarray:
+    """Lower and upper bounds of F(cos, eta) on each of ``FRESNEL_BINS`` cosine bins.
+
+    Returns a ``(FRESNEL_BINS, 2)`` array. The kernel decides a Fresnel event
+    ``u < F(cos)`` from the bounds of the cosine's bin and evaluates the exact F
+    (physics.md sec. 4) only when ``u`` falls between them, so every decision is the
+    exact one while most evaluations are skipped.
+
+    F is monotone in the cosine except near its single minimum (the pseudo-Brewster
+    angle, which for large eta lies at small cosines). A bin gets the bounds of its
+    end points only when F is monotone in the same sense over the bin and both its
+    neighbours (checked on 32 interior points each); every other bin gets the
+    impossible bounds (-1, 2), which always fall through to the exact F.
+    """
+    from vcavity.facet.fresnel import fresnel_dielectric_array
+
+    n_fine = 32
+    c = np.linspace(0.0, 1.0, FRESNEL_BINS * n_fine + 1)
+    f = fresnel_dielectric_array(c, float(eta))
+    steps = np.diff(f).reshape(FRESNEL_BINS, n_fine)
+    sense = np.where(np.all(steps <= 0.0, axis=1), -1, np.where(np.all(steps >= 0.0, axis=1), 1, 0))
+    padded = np.concatenate([[sense[0]], sense, [sense[-1]]])
+    trusted = (sense != 0) & (padded[:-2] == sense) & (padded[2:] == sense)
+    ends = f[::n_fine]
+    brackets = np.empty((FRESNEL_BINS, 2))
+    brackets[:, 0] = np.minimum(ends[:-1], ends[1:])
+    brackets[:, 1] = np.maximum(ends[:-1], ends[1:])
+    brackets[~trusted] = (-1.0, 2.0)
+    return brackets
 
 
 @njit(cache=True, inline="always")
-def _emerge(state, facet_mode, eta, nx, nz):
+def _below_fresnel(u, cos_in, eta, brackets):
+    """Exactly ``u < F(cos_in, eta)``, mostly decided from the bracketing table."""
+    j = int(cos_in * FRESNEL_BINS)
+    if j >= FRESNEL_BINS:
+        j = FRESNEL_BINS - 1
+    elif j < 0:
+        j = 0
+    if u < brackets[j, 0]:
+        return True
+    if u >= brackets[j, 1]:
+        return False
+    return u < fresnel_dielectric(cos_in, eta)
+
+
+@njit(cache=True, inline="always")
+def _emerge(state, facet_mode, eta, f_brackets, nx, nz):
     """Direction leaving the IL body through a facet of normal (nx, 0, nz).
 
     pdf proportional to T(w.m)(w.m) (physics.md sec. 4): a cosine-weighted direction
@@ -70,21 +128,37 @@ def _emerge(state, facet_mode, eta, nx, nz):
             continue
         mu = math.sqrt(1.0 - rho2)
         if facet_mode == INTERFACED_LAMBERTIAN:
+            # accept with probability T(mu) = 1 - F(mu): reject when 1 - ut < F(mu)
             state, ut = next_uniform(state)
-            if ut >= 1.0 - fresnel_dielectric(mu, eta):
+            if _below_fresnel(1.0 - ut, mu, eta, f_brackets):
                 continue
         return state, a * nz + mu * nx, b, mu * nz - a * nx
 
 
+# outcome codes of one path
+EXITED = 0
+ABSORBED = 1
+TRUNCATED = 2
+DEGENERATE = 3
+
+
 @njit(cache=True, inline="always")
-def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, emergence_prob,
-                max_bounces, max_order, resolution, counts, stats):
-    """Trace one path; add it to ``counts`` (order slot, cell) or ``stats``; return the stream state."""
-    state, u1 = next_uniform(state)
-    state, u2 = next_uniform(state)
-    tan_m, cos_phi, sin_phi = _sample_groove(dist_kind, u1, u2, params)
-    cos_t = 1.0 / math.hypot(1.0, tan_m)
-    sin_t = tan_m * cos_t
+def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, f_brackets, emergence_prob,
+                max_bounces, resolution):
+    """Trace one path from the light into a sampled groove until it leaves or ends.
+
+    Returns ``(state, outcome, bounces, cell)``: the advanced stream state, one of
+    ``EXITED / ABSORBED / TRUNCATED / DEGENERATE``, the number of facet events, and the
+    sensor cell of the exit direction (valid when ``outcome == EXITED``). Nothing is
+    written to memory here, so threads share no cache lines in the hot loop.
+    """
+    state, tan_m, cos_phi, sin_phi = _sample_groove(state, dist_kind, params)
+    if tan_m < 1e150:
+        cos_t = 1.0 / math.sqrt(1.0 + tan_m * tan_m)
+        sin_t = tan_m * cos_t
+    else:  # tan^2 would overflow
+        cos_t = 1.0 / tan_m
+        sin_t = 1.0
     # d = -i in the groove frame (x' = (cos phi, sin phi, 0), y' = (-sin phi, cos phi, 0))
     dx = -(ix * cos_phi + iy * sin_phi)
     dy = -(iy * cos_phi - ix * sin_phi)
@@ -98,12 +172,9 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, emergence
         if surface == OPENING:
             break
         if surface == NO_HIT:
-            stats[STAT_DEGENERATE] += 1
-            return state
+            return state, DEGENERATE, k, 0
         if k == max_bounces:
-            stats[STAT_TRUNCATED] += 1
-            stats[STAT_MAX_BOUNCES] = max(stats[STAT_MAX_BOUNCES], k)
-            return state
+            return state, TRUNCATED, k, 0
         k += 1
         # facet normal (nx, 0, nz); cos_in = -(d.n) is written with the same rate the
         # geometry used, so it is > 0 whenever the facet was hit.
@@ -120,34 +191,47 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, emergence
             reflect = False
         else:
             state, u = next_uniform(state)
-            reflect = u < fresnel_dielectric(cos_in, eta)
+            reflect = _below_fresnel(u, cos_in, eta, f_brackets)
         if reflect:
             dx += 2.0 * cos_in * nx
             dz += 2.0 * cos_in * nz
             continue
         if facet_mode == DIELECTRIC:
-            stats[STAT_ABSORBED] += 1
-            stats[STAT_MAX_BOUNCES] = max(stats[STAT_MAX_BOUNCES], k)
-            return state
+            return state, ABSORBED, k, 0
         # enters the body; re-emerges with probability a (== 1.0 exactly when kd == 1)
         state, u = next_uniform(state)
         if u >= emergence_prob:
-            stats[STAT_ABSORBED] += 1
-            stats[STAT_MAX_BOUNCES] = max(stats[STAT_MAX_BOUNCES], k)
-            return state
-        state, dx, dy, dz = _emerge(state, facet_mode, eta, nx, nz)
-    # exit through the opening: back to the world frame, bin, count
+            return state, ABSORBED, k, 0
+        state, dx, dy, dz = _emerge(state, facet_mode, eta, f_brackets, nx, nz)
+    # exit through the opening: back to the world frame and bin
     wx = dx * cos_phi - dy * sin_phi
     wy = dx * sin_phi + dy * cos_phi
     inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
-    cell = direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
-    slot = k if k <= max_order else 0
-    counts[slot, cell] += 1
-    stats[STAT_MAX_BOUNCES] = max(stats[STAT_MAX_BOUNCES], k)
-    return state
+    return state, EXITED, k, direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
 
 
 _KERNELS: dict[tuple[int, int], object] = {}
+
+
+def _source_tag() -> int:
+    """Hash of every source file the kernels inline.
+
+    Numba's on-disk cache only notices edits to the file of the cached function itself,
+    not to the functions it inlines from other modules. The kernel closes over this tag,
+    and closure values are part of Numba's cache key, so editing any of these files
+    recompiles the kernel instead of silently running stale code.
+    """
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.blake2b(digest_size=8)
+    for sub in ("kernels", "facet", "microfacet"):
+        for path in sorted((root / sub).glob("*.py")):
+            digest.update(path.read_bytes())
+    for name in ("sensor.py", "rng.py"):
+        digest.update((root / name).read_bytes())
+    return int.from_bytes(digest.digest(), "little") >> 1
+
+
+_SOURCE_TAG = _source_tag()
 
 
 def get_kernel(dist_kind: int, facet_mode: int):
@@ -156,7 +240,7 @@ def get_kernel(dist_kind: int, facet_mode: int):
     The returned function has the signature::
 
         kernel(incident, direction_key, first_block, n_blocks, n_paths, params, eta,
-               emergence_prob, max_bounces, max_order, resolution, n_slots)
+               f_brackets, emergence_prob, max_bounces, max_order, resolution, n_slots)
             -> (counts[n_slots, max_order + 1, resolution**2] int64,
                 stats[n_slots, N_STATS] int64)
 
@@ -172,10 +256,12 @@ def get_kernel(dist_kind: int, facet_mode: int):
         return _KERNELS[key]
     DIST = key[0]
     FACET = key[1]
+    SOURCE_TAG = _SOURCE_TAG
 
     @njit(cache=True, parallel=True)
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, eta,
-               emergence_prob, max_bounces, max_order, resolution, n_slots):
+               f_brackets, emergence_prob, max_bounces, max_order, resolution, n_slots):
+        _ = SOURCE_TAG  # part of the cache key; see _source_tag
         n_cells = resolution * resolution
         counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
         stats = np.zeros((n_slots, N_STATS), np.int64)
@@ -184,16 +270,31 @@ def get_kernel(dist_kind: int, facet_mode: int):
         iz = incident[2]
         for slot in prange(n_slots):
             slot_counts = counts[slot]
-            slot_stats = stats[slot]
+            absorbed = 0
+            truncated = 0
+            degenerate = 0
+            deepest = 0
             for b in range(slot, n_blocks, n_slots):
                 block = first_block + b
-                start = block * BLOCK_SIZE
-                n_here = min(BLOCK_SIZE, n_paths - start)
+                n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
                 state = block_key(direction_key, block)
                 for _ in range(n_here):
-                    state = _trace_path(state, ix, iy, iz, params, DIST, FACET, eta,
-                                        emergence_prob, max_bounces, max_order, resolution,
-                                        slot_counts, slot_stats)
+                    state, outcome, k, cell = _trace_path(
+                        state, ix, iy, iz, params, DIST, FACET, eta, f_brackets, emergence_prob,
+                        max_bounces, resolution)
+                    deepest = max(deepest, k)
+                    if outcome == EXITED:
+                        slot_counts[k if k <= max_order else 0, cell] += 1
+                    elif outcome == ABSORBED:
+                        absorbed += 1
+                    elif outcome == TRUNCATED:
+                        truncated += 1
+                    else:
+                        degenerate += 1
+            stats[slot, STAT_ABSORBED] = absorbed
+            stats[slot, STAT_TRUNCATED] = truncated
+            stats[slot, STAT_DEGENERATE] = degenerate
+            stats[slot, STAT_MAX_BOUNCES] = deepest
         return counts, stats
 
     _KERNELS[key] = kernel
