@@ -1,7 +1,8 @@
-"""Command-line interface: ``vcavity run`` and ``vcavity info``.
+"""Command-line interface: ``vcavity run``, ``vcavity info`` and ``vcavity compare``.
 
-Exit status: 0 success; 2 bad input (config, arguments, unreadable table) with a one-line
-message and no output file; 130 interrupted (no output file written or changed).
+Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
+(config, arguments, unreadable table, model not applicable) with a one-line message and
+no output file; 130 interrupted (no output file written or changed).
 """
 
 from __future__ import annotations
@@ -98,6 +99,25 @@ def build_parser() -> argparse.ArgumentParser:
     info = sub.add_parser("info", help="print a human summary of a table",
                           description="Print the material, budget, albedo per order, absorbed and truncated energy of a table.")
     info.add_argument("table", metavar="OUT.h5")
+
+    compare = sub.add_parser(
+        "compare", help="compare a table with an analytic model (exit 0 pass, 1 fail)",
+        description="Compare a table with an analytic model: albedos, relative L1 over the "
+        "hemisphere (with the value noise alone gives), and a Pearson chi-square test of the f1 "
+        "counts against the V-cavity single-bounce model, its exact expectation. Exit status 0 "
+        "when that test passes for every incident direction (Sidak-corrected), 1 when it fails, "
+        "2 for bad input (not a table, missing dataset or order, model not applicable).")
+    compare.add_argument("table", metavar="OUT.h5")
+    compare.add_argument("--model", default="vcavity", choices=("vcavity", "smith", "smith-hc", "oren-nayar"),
+                         help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
+                         "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1)")
+    compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
+    compare.add_argument("--significance", type=float, default=0.01, metavar="A",
+                         help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
+    compare.add_argument("--nodes", type=_positive_int, default=64, metavar="N",
+                         help="body-integral nodes per axis of the model (accuracy control, default 64)")
+    compare.add_argument("--lambda-fit", action="store_true",
+                         help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
     return parser
 
 
@@ -204,6 +224,30 @@ def _cmd_info(args) -> int:
     return EXIT_OK
 
 
+def _cmd_compare(args) -> int:
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.compare import compare_table, format_report
+    from vcavity.io.table import TableFormatError, open_table
+
+    if not 0.0 < args.significance < 1.0:
+        return _error(f"--significance = {args.significance}: must be in (0, 1)")
+    try:
+        table = open_table(args.table)
+    except FileNotFoundError:
+        return _error(f"table {args.table!r}: no such file")
+    except (TableFormatError, OSError) as exc:
+        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    try:
+        report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
+                               lambda_fit=args.lambda_fit, plots_dir=args.plots)
+    except ModelNotApplicable as exc:
+        return _error(str(exc).splitlines()[0])
+    print(format_report(report))
+    if args.plots:
+        print(f"plots written to {args.plots}")
+    return EXIT_OK if report.passed else 1
+
+
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``vcavity`` console script."""
     parser = build_parser()
@@ -212,6 +256,8 @@ def main(argv: list[str] | None = None) -> int:
         return _cmd_run(args)
     if args.command == "info":
         return _cmd_info(args)
+    if args.command == "compare":
+        return _cmd_compare(args)
     parser.error(f"unknown command {args.command!r}")
     return EXIT_BAD_INPUT
 

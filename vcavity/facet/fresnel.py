@@ -57,6 +57,16 @@ _RE_SERIES_MAX_DELTA = 0.4
 # below it r_e is. Each form is cancellation-free on its side (relative error ~1e-16).
 _RE_COMPLEMENT_MIN_ETA = 4.0
 
+# Above this eta, 1 - r_e = 16/(3 eta) - O(ln(eta)/eta^2) (measured: the correction is
+# 8 ln(eta)/eta^2 to leading order), i.e. 16/(3 eta) to below 1e-27 relative: the closed
+# form's eta^8-sized intermediates would overflow from eta ~ 1e38 on (NaN before).
+_RE_ASYMPTOTIC_MIN_ETA = 1e30
+
+# Above this eta, F and T use the same expressions divided through by powers of eta
+# (no eta^4-sized intermediate, which overflows from eta ~ 1e77 and gave NaN): exact
+# algebra, not an approximation, so the switch is seamless (tests/test_numerics_review.py).
+_FRESNEL_SCALED_MIN_ETA = 1e50
+
 
 @njit(cache=True, inline="always")
 def _g_squared(eta, c, e2m1, sin2):
@@ -65,6 +75,45 @@ def _g_squared(eta, c, e2m1, sin2):
     if e2m1 >= 0.0:
         return e2m1 + c * c
     return eta * eta - sin2
+
+
+@njit(cache=True, inline="always")
+def _fresnel_scaled(c, sin2, inv_eta):
+    """F of W eq. 22 for very large eta, written with ``g_hat = g/eta`` and ``1/eta``.
+
+    ``r_s = (1 - 1/eta^2)/(g_hat + c/eta)^2`` and
+    ``r_p = (1 - 1/eta^2) (c - sin/eta)(c + sin/eta)/(c + g_hat/eta)^2`` are the
+    amplitudes of :func:`fresnel_dielectric` divided through by ``eta^2`` and ``eta^4``;
+    every factor is a ratio bounded by ~1, so nothing overflows or underflows to 0/0.
+    """
+    sin_t = math.sqrt(sin2)
+    s_inv = sin_t * inv_eta
+    g_hat = math.sqrt((1.0 - s_inv) * (1.0 + s_inv))
+    head = (1.0 - inv_eta) * (1.0 + inv_eta)
+    den_s = g_hat + c * inv_eta
+    r_s = head / (den_s * den_s)
+    den_p = c + g_hat * inv_eta
+    r_p = head * ((c - s_inv) / den_p) * ((c + s_inv) / den_p)
+    return min(0.5 * (r_s * r_s + r_p * r_p), 1.0)
+
+
+@njit(cache=True, inline="always")
+def _transmittance_scaled(c, eta):
+    """T of :func:`fresnel_transmittance` for very large eta (``g = eta g_hat``).
+
+    ``2gc/(g+c)^2 = 2 (g_hat/(g_hat + c/eta)) ((c/eta)/(g_hat + c/eta))`` and
+    ``2 g c eta^2/(eta^2 c + g)^2 = 2 (g_hat/(x + g_hat)) (x/(x + g_hat))`` with
+    ``x = eta c``: bounded ratios only.
+    """
+    inv_eta = 1.0 / eta
+    s_inv = math.sqrt((1.0 - c) * (1.0 + c)) * inv_eta
+    g_hat = math.sqrt((1.0 - s_inv) * (1.0 + s_inv))
+    c_inv = c * inv_eta
+    x = c * eta  # <= eta: finite
+    den_1 = g_hat + c_inv
+    den_2 = x + g_hat
+    t = 2.0 * (g_hat / den_1) * (c_inv / den_1) + 2.0 * (g_hat / den_2) * (x / den_2)
+    return min(t, 1.0)
 
 
 @njit(cache=True)
@@ -102,6 +151,8 @@ def fresnel_dielectric(cos_theta, eta):
     if c == 0.0:
         return 1.0  # grazing incidence: r_s = r_p = -1 (avoids sqrt(g^2)^2 != g^2 rounding)
     sin2 = (1.0 - c) * (1.0 + c)
+    if eta > _FRESNEL_SCALED_MIN_ETA:
+        return _fresnel_scaled(c, sin2, 1.0 / eta)
     g2 = _g_squared(eta, c, e2m1, sin2)
     if g2 <= 0.0:
         return 1.0  # total internal reflection (eta < 1)
@@ -139,6 +190,8 @@ def fresnel_transmittance(cos_theta, eta):
     e2m1 = (eta - 1.0) * (eta + 1.0)
     if e2m1 == 0.0:
         return 1.0
+    if eta > _FRESNEL_SCALED_MIN_ETA:
+        return _transmittance_scaled(c, eta)
     g2 = _g_squared(eta, c, e2m1, (1.0 - c) * (1.0 + c))
     if g2 <= 0.0:
         return 0.0
@@ -204,14 +257,18 @@ def fresnel_transmittance_array(cos_array, eta):
 def _r_e_and_complement(eta):
     """Return ``(r_e, 1 - r_e)``, each with ~1e-16 relative error (IL eq. 10).
 
-    Domain ``1 <= eta <= 1e30``; NaN for ``eta < 1`` (r_e is defined for light
-    arriving from the optically thinner side).
+    Domain ``eta >= 1`` (every finite float; above 1e30 the leading asymptotic term
+    ``1 - r_e = 16/(3 eta)``, exact to float precision there); NaN for ``eta < 1``
+    (r_e is defined for light arriving from the optically thinner side).
     """
     delta = eta - 1.0
     if delta == 0.0:
         return 0.0, 1.0
     if not delta > 0.0:
         return np.nan, np.nan
+    if eta > _RE_ASYMPTOTIC_MIN_ETA:
+        complement = (16.0 / 3.0) / eta
+        return 1.0 - complement, complement
     e2 = eta * eta
     e2p1 = e2 + 1.0
     e2m1 = delta * (eta + 1.0)
@@ -252,7 +309,7 @@ def r_e(eta):
     Parameters
     ----------
     eta : float
-        Relative index, ``1 <= eta <= 1e30`` (NaN below 1).
+        Relative index, ``eta >= 1`` (NaN below 1).
 
     Returns
     -------
@@ -274,7 +331,7 @@ def one_minus_r_i(eta):
     Parameters
     ----------
     eta : float
-        Relative index, ``1 <= eta <= 1e30``.
+        Relative index, ``eta >= 1``.
 
     Returns
     -------
@@ -282,7 +339,10 @@ def one_minus_r_i(eta):
         Fraction of diffuse light inside the body that escapes per interface hit;
         exactly 1 at ``eta == 1``, ~16/(3 eta^3) at large eta.
     """
-    return _r_e_and_complement(eta)[1] / (eta * eta)
+    complement = _r_e_and_complement(eta)[1]
+    if eta > _RE_ASYMPTOTIC_MIN_ETA:
+        return complement / eta / eta  # eta * eta would overflow first (eta > 1e154)
+    return complement / (eta * eta)
 
 
 @njit(cache=True)
@@ -292,7 +352,7 @@ def r_i(eta):
     Parameters
     ----------
     eta : float
-        Relative index, ``1 <= eta <= 1e30``.
+        Relative index, ``eta >= 1``.
 
     Returns
     -------
@@ -316,7 +376,7 @@ def emergence_probability(kd, eta):
     kd : float
         Body albedo in [0, 1].
     eta : float
-        Relative index, ``1 <= eta <= 1e30``.
+        Relative index, ``eta >= 1``.
 
     Returns
     -------
@@ -325,4 +385,7 @@ def emergence_probability(kd, eta):
     """
     escape = one_minus_r_i(eta)
     kd_escape = kd * escape
-    return kd_escape / ((1.0 - kd) + kd_escape)
+    denominator = (1.0 - kd) + kd_escape
+    if denominator == 0.0:  # kd == 1 and 1 - r_i underflowed (eta > ~1e108): a = 1
+        return 1.0
+    return kd_escape / denominator

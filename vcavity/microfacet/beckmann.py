@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.microfacet.common import normal_from_slope_angle, stretched_slope
 
 NAME = "beckmann"
 KIND = 0
@@ -68,10 +68,8 @@ def sample(u1, u2, params):
     if r == 0.0:
         return 0.0, 1.0, 0.0
     phi = _TWO_PI * u2
-    cx = params[0] * math.cos(phi)
-    cy = params[1] * math.sin(phi)
-    q = math.sqrt(cx * cx + cy * cy)  # |slope| / r, >= min(alpha) > 0
-    return r * q, -cx / q, -cy / q
+    # |slope| / r = |(alpha_x cos, alpha_y sin)|; rescaled when alpha is extreme
+    return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
 
 @numba.njit(cache=True)

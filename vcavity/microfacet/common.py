@@ -13,8 +13,20 @@ Every function here is ``numba.njit(cache=True)``; the ``*_many`` variants loop
 over ``(N, 3)`` float64 arrays for analytic (NumPy-side) code.
 """
 
+import math
+
 import numba
 import numpy as np
+
+#: Largest ``tan theta_m`` a sampler returns. Larger tangents (Beckmann/GGX with
+#: ``alpha`` near the float64 maximum) are clamped: the groove is vertical to within
+#: 1e-300 rad either way, and every product the V-groove walk forms with it stays finite.
+MAX_TAN_THETA = 1e300
+
+# ``cx^2 + cy^2`` is computed plainly when ``|slope|/r`` lies in this range (all
+# realistic roughness); outside it the squares would under- or overflow.
+_PLAIN_NORM_MIN = 1e-150
+_PLAIN_NORM_MAX = 1e150
 
 
 @numba.njit(cache=True)
@@ -183,7 +195,7 @@ def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
     Parameters
     ----------
     tan_theta : float
-        ``tan theta_m >= 0`` (finite).
+        ``tan theta_m >= 0`` (finite; any size).
     cos_phi, sin_phi : float
         Unit azimuth pair.
 
@@ -192,6 +204,65 @@ def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
     mx, my, mz : float
         ``(sin theta cos phi, sin theta sin phi, cos theta)``.
     """
-    mz = 1.0 / np.sqrt(1.0 + tan_theta * tan_theta)
-    sin_theta = tan_theta * mz
+    if tan_theta < 1e150:
+        mz = 1.0 / np.sqrt(1.0 + tan_theta * tan_theta)
+        sin_theta = tan_theta * mz
+    else:  # tan^2 would overflow (mz = 0, |m| = 0); 1/sqrt(1 + t^2) = 1/t to 1e-300
+        mz = 1.0 / tan_theta
+        sin_theta = 1.0
     return sin_theta * cos_phi, sin_theta * sin_phi, mz
+
+
+@numba.njit(cache=True)
+def stretched_slope(r, cos_u, sin_u, alpha_x, alpha_y):
+    """Slope-space sample ``r (alpha_x cos_u, alpha_y sin_u)`` as (tan theta_m, cos phi_m, sin phi_m).
+
+    Stretching of the isotropic unit-roughness slope (H sec. 5, physics.md sec. 2);
+    the normal is ``normalize(-s_x, -s_y, 1)``, so ``phi_m`` points against the slope.
+    For ``|slope|/r`` within ``[1e-150, 1e150]`` this is the plain formula; outside it
+    both components are scaled by one power of two so that no product or square under-
+    or overflows, and the tangent is clamped to :data:`MAX_TAN_THETA`.
+
+    Parameters
+    ----------
+    r : float
+        Unit-roughness slope magnitude (>= 0, finite).
+    cos_u, sin_u : float
+        Azimuth of the unit-roughness slope: a unit pair, or any non-zero multiple
+        ``c (cos, sin)`` of one, which then multiplies the tangent by ``c`` (a disk
+        point ``(a, b)`` with ``r / sqrt(a^2 + b^2)``, as the kernel's trig-free sampler
+        uses, gives the same result).
+    alpha_x, alpha_y : float
+        Roughness (> 0).
+
+    Returns
+    -------
+    tan_theta_m, cos_phi_m, sin_phi_m : float
+        Finite ``tan >= 0`` and a unit azimuth pair.
+    """
+    cx = alpha_x * cos_u
+    cy = alpha_y * sin_u
+    q = math.sqrt(cx * cx + cy * cy)
+    if _PLAIN_NORM_MIN < q < _PLAIN_NORM_MAX:
+        return r * q, -cx / q, -cy / q
+    # Beyond the plain range: scale both components by the same power of two, taken from
+    # the exponents of the factors, so neither the products nor their squares leave the
+    # normal float range (no subnormal loses the azimuth's precision).
+    fax, eax = math.frexp(alpha_x)
+    fcx, ecx = math.frexp(cos_u)
+    fay, eay = math.frexp(alpha_y)
+    fcy, ecy = math.frexp(sin_u)
+    ex = eax + ecx
+    ey = eay + ecy
+    if fcx == 0.0:
+        ex = ey
+    if fcy == 0.0:
+        ey = ex
+    e = max(ex, ey)
+    sx = math.ldexp(fax * fcx, ex - e)  # one of the two is in [1/4, 1) in magnitude
+    sy = math.ldexp(fay * fcy, ey - e)
+    qs = math.hypot(sx, sy)
+    tan_theta = math.ldexp(r * qs, e)  # inf when it overflows: clamped below
+    if not tan_theta <= MAX_TAN_THETA:
+        tan_theta = MAX_TAN_THETA
+    return tan_theta, -sx / qs, -sy / qs

@@ -4,7 +4,9 @@
 ``1/C = 2 pi int_0^{pi/2} exp(-theta^2/(2 sigma^2)) sin theta dtheta``, so the
 sampling pdf is ``D(m)(m.n) = C exp(-theta_m^2/(2 sigma^2))`` and the theta
 marginal is ``p(theta) = 2 pi C exp(-theta^2/(2 sigma^2)) sin theta`` on
-``[0, pi/2]``.  ``sigma`` (radians) is meant for about ``1e-3 .. 2``.
+``[0, pi/2]``.  ``sigma`` (radians) is meant for about ``1e-3 .. 2``; every
+``sigma > 0`` samples correctly (below 1e-100 the table is the exact Rayleigh limit
+``theta = sigma w``).
 
 ``params`` layout (float64, built by :func:`make_params`, shape (5 + 2 (n+1),))::
 
@@ -47,6 +49,8 @@ _TWO_PI = 2.0 * math.pi
 _ONE_MINUS_ULP = 1.0 - 2.0**-53
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(20)
 _HEADER = 5
+# Below this sigma the table is the exact small-angle (Rayleigh) limit.
+_RAYLEIGH_MAX_SIGMA = 1e-100
 
 
 def _density(theta, sigma):
@@ -64,6 +68,14 @@ def _gl_integral(a, b, sigma):
 
 def _build_table(sigma, n_table):
     """Return ``C`` and the tabulated ``theta(w)``, ``dtheta/dw`` (see module docstring)."""
+    if sigma < _RAYLEIGH_MAX_SIGMA:
+        # sin(theta) = theta to 1e-200 relative: the theta marginal is Rayleigh,
+        # theta = sigma w exactly. (The quadrature below would underflow: the density
+        # scales like sigma^2, which is 0 in float64 for sigma < 1.5e-154.)
+        w_nodes = np.linspace(0.0, W_MAX, n_table + 1)
+        with np.errstate(over="ignore", divide="ignore"):
+            c_norm = float(np.float64(1.0) / (_TWO_PI * np.float64(sigma) * sigma))  # inf if sigma^2 underflows
+        return c_norm, sigma * w_nodes, np.full(n_table + 1, sigma)
     theta_top = min(_HALF_PI, 12.0 * sigma)  # beyond: tail < exp(-72) of the total
     n_panels = 256
     edges = np.linspace(0.0, theta_top, n_panels + 1)
@@ -241,7 +253,10 @@ def pdf(mx, my, mz, params):
         return 0.0
     theta = math.atan2(math.sqrt(mx * mx + my * my), mz)
     r = theta / params[0]
-    return params[1] * math.exp(-0.5 * r * r)
+    weight = math.exp(-0.5 * r * r)
+    if weight == 0.0:  # also when C = inf (sigma < 1.5e-154): no inf * 0
+        return 0.0
+    return params[1] * weight
 
 
 @numba.njit(cache=True)

@@ -15,7 +15,7 @@ import math
 import numba
 import numpy as np
 
-from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.microfacet.common import normal_from_slope_angle, stretched_slope
 
 NAME = "ggx"
 KIND = 1
@@ -58,7 +58,8 @@ def sample(u1, u2, params):
     Returns
     -------
     tan_theta_m, cos_phi_m, sin_phi_m : float
-        Finite ``tan theta_m >= 0`` (at most ~1e8 max(alpha)) and a unit azimuth
+        Finite ``tan theta_m >= 0`` (at most ~1e8 max(alpha), and at most
+        ``common.MAX_TAN_THETA``) and a unit azimuth
         pair (``(1, 0)`` when the tangent is 0).
     """
     if u1 >= 1.0:
@@ -67,10 +68,8 @@ def sample(u1, u2, params):
         return 0.0, 1.0, 0.0
     r = math.sqrt(u1 / (1.0 - u1))
     phi = _TWO_PI * u2
-    cx = params[0] * math.cos(phi)
-    cy = params[1] * math.sin(phi)
-    q = math.sqrt(cx * cx + cy * cy)  # |slope| / r, >= min(alpha) > 0
-    return r * q, -cx / q, -cy / q
+    # |slope| / r = |(alpha_x cos, alpha_y sin)|; rescaled when alpha is extreme
+    return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
 
 @numba.njit(cache=True)

@@ -1,0 +1,78 @@
+"""Parameters exactly at the edge of validity get the same one-line errors as any bad input
+(issue 4): exit status 2, one line on stderr naming the field and value, nothing on
+stdout, no output file (not even a temporary one). Values just inside the edge run.
+"""
+
+import pytest
+
+from vcavity.cli import EXIT_BAD_INPUT, main
+from vcavity.io.table import open_table
+
+BASE_MATERIAL = {"distribution": '"beckmann"', "alpha": "0.5", "kd": "0.5", "eta": "1.5"}
+BASE_INCIDENCE = {"theta_i_deg": "[0.0, 45.0]", "paths": "4096"}
+
+
+def _write_config(folder, material=None, incidence=None):
+    material = {**BASE_MATERIAL, **(material or {})}
+    incidence = {**BASE_INCIDENCE, **(incidence or {})}
+    lines = ["[material]"] + [f"{k} = {v}" for k, v in material.items() if v is not None]
+    lines += ["[incidence]"] + [f"{k} = {v}" for k, v in incidence.items()]
+    lines += ["[simulation]", "sensor_resolution = 9"]
+    path = folder / "edge.toml"
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _run_bad(tmp_path, capsys, **sections):
+    config = _write_config(tmp_path, **sections)
+    out_path = tmp_path / "out.h5"
+    status = main(["run", str(config), "-o", str(out_path), "-q"])
+    captured = capsys.readouterr()
+    assert status == EXIT_BAD_INPUT == 2
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vcavity: error: ")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["edge.toml"]  # no table, no temporary
+    return lines[0]
+
+
+EDGES = [
+    # (section, key, TOML value, text the message must contain)
+    ("material", "alpha", "0.0", "material.alpha = 0.0: must be > 0"),
+    ("material", "alpha", "-0.0", "material.alpha = -0.0: must be > 0"),
+    ("material", "kd", "1.000000000001", "material.kd = 1.000000000001: must be in [0, 1]"),
+    ("material", "kd", "-5e-324", "material.kd = -5e-324: must be in [0, 1]"),
+    ("material", "eta", "0.999999999999", "material.eta = 0.999999999999: must be >= 1"),
+    ("incidence", "theta_i_deg", "90.0", "incidence.theta_i_deg = 90.0: must be in [0, 90) degrees"),
+    ("incidence", "theta_i_deg", "[0.0, 90.0]", "incidence.theta_i_deg = 90.0: must be in [0, 90) degrees"),
+    ("incidence", "theta_i_deg", "-1e-300", "incidence.theta_i_deg = -1e-300: must be in [0, 90) degrees"),
+    ("material", "alpha", "nan", "material.alpha = nan: must be a finite number"),
+    ("material", "eta", "inf", "material.eta = inf: must be a finite number"),
+]
+
+
+@pytest.mark.parametrize("section, key, value, message", EDGES, ids=[f"{e[1]}={e[2]}" for e in EDGES])
+def test_edge_of_validity_is_a_one_line_error_without_output(tmp_path, capsys, section, key, value, message):
+    line = _run_bad(tmp_path, capsys, **{section: {key: value}})
+    assert message in line
+
+
+@pytest.mark.parametrize("material, message", [
+    ({"distribution": '"ggx"', "alpha": None, "alpha_x": "0.0", "alpha_y": "0.3"}, "material.alpha_x = 0.0: must be > 0"),
+    ({"distribution": '"gaussian"', "alpha": None, "sigma": "0.0"}, "material.sigma = 0.0: must be > 0"),
+    ({"distribution": '"phong"', "alpha": None, "exponent": "-1e-300"}, "material.exponent = -1e-300: must be >= 0"),
+])
+def test_edge_of_each_roughness_parameter(tmp_path, capsys, material, message):
+    assert message in _run_bad(tmp_path, capsys, material=material)
+
+
+def test_values_just_inside_the_edge_run(tmp_path, capsys):
+    # kd = 1 and 0, eta = 1, theta_i one ulp below 90 deg, tiny alpha: valid, and they run
+    for material in ({"kd": "1.0", "eta": "1.0", "alpha": "1e-12"}, {"kd": "0.0", "eta": "1.0000000000002"}):
+        config = _write_config(tmp_path, material=material, incidence={"theta_i_deg": "[0.0, 89.99999999999999]"})
+        out_path = tmp_path / "inside.h5"
+        assert main(["run", str(config), "-o", str(out_path), "-q"]) == 0
+        table = open_table(out_path)
+        assert table.degenerate.sum() == 0 and (table.brdf >= 0).all()
+        out_path.unlink()
+    capsys.readouterr()

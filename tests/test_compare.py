@@ -1,0 +1,131 @@
+"""``vcavity compare``: pass / fail / bad input, report contents, plots."""
+
+import math
+import shutil
+
+import h5py
+import numpy as np
+import pytest
+
+from vcavity.cli import main
+from vcavity.compare import compare_table, format_report
+from vcavity.config import validate
+from vcavity.io.table import open_table, write_table
+from vcavity.rng import BLOCK_SIZE
+from vcavity.simulate import simulate
+
+FIG7 = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
+GAUSSIAN = {"distribution": "gaussian", "sigma": 0.4, "kd": 0.8, "eta": 1.0}
+
+
+def write_run(path, material, label_material=None, paths=200_000, max_order=2, seed=3):
+    """Simulate and write a table; ``label_material`` overrides the stored material."""
+    cfg = validate({"material": material,
+                    "incidence": {"theta_i_deg": [0.0, 60.0], "phi_i_deg": 20.0, "paths": paths},
+                    "simulation": {"seed": seed, "max_order": max_order, "sensor_resolution": 17}})
+    r = simulate(cfg)
+    label = validate({"material": label_material}).material if label_material else cfg.material
+    write_table(path, theta_i=r.theta_i, phi_i=r.phi_i, order=r.order, counts=r.counts, paths=r.paths,
+                absorbed_paths=r.absorbed_paths, truncated_paths=r.truncated_paths,
+                degenerate_paths=r.degenerate_paths, max_bounces_seen=r.max_bounces_seen, sensor=r.sensor,
+                material=label.to_dict(), config=cfg.to_dict(), seed=cfg.seed, block_size=BLOCK_SIZE,
+                max_bounces=cfg.effective_max_bounces)
+    return path
+
+
+@pytest.fixture(scope="module")
+def tables(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("compare")
+    return {
+        "fig7": write_run(folder / "fig7.h5", FIG7),
+        # simulated with alpha = 0.45 but labelled alpha = 0.6: f1 must not pass
+        "mislabelled": write_run(folder / "mislabelled.h5", dict(FIG7, alpha=0.45), label_material=FIG7),
+        "gaussian": write_run(folder / "gaussian.h5", GAUSSIAN),
+        "gaussian_f1_only": write_run(folder / "gaussian1.h5", GAUSSIAN, paths=20_000, max_order=1),
+        "folder": folder,
+    }
+
+
+def test_pass_prints_albedos_l1_chi_square(tables, capsys):
+    # False-alarm rate of this pass: 1 % (family level, Sidak over the 2 directions).
+    assert main(["compare", str(tables["fig7"])]) == 0
+    out = capsys.readouterr().out
+    assert "result: PASS" in out
+    assert out.count("chi2 f1 vs vcavity") == 2 and out.count("relative L1") == 2
+    assert "table albedo: f_inf" in out and "noise alone" in out and "largest cell deviation" in out
+
+
+def test_wrong_material_fails_with_status_1(tables, capsys):
+    assert main(["compare", str(tables["fig7"]).replace("fig7", "mislabelled")]) == 1
+    assert "FAIL" in capsys.readouterr().out
+
+
+def test_report_api_values(tables):
+    table = open_table(tables["fig7"])
+    report = compare_table(table)
+    assert report.passed and len(report.directions) == 2
+    for j, d in enumerate(report.directions):
+        assert d.model_orders == (1,)
+        assert d.table_model_albedo == pytest.approx(table.albedo[j, table.order_index(1)])
+        # 200k paths: the f1 albedo agrees within 5 binomial standard errors (p ~ 6e-7 to fail)
+        p = d.table_model_albedo
+        assert abs(p - d.model_albedo) < 5 * math.sqrt(p * (1 - p) / d.paths)
+        assert 0.5 < d.relative_l1 / d.noise_l1 < 1.5  # no bias visible over the noise
+        assert d.chi_square.dof == d.chi_square.n_categories - 1
+    assert "result: PASS" in format_report(report)
+
+
+def test_smith_models_report_the_profile_effect(tables, capsys):
+    for model in ("smith", "smith-hc"):
+        assert main(["compare", str(tables["fig7"]), "--model", model]) == 0  # chi2 is still vs V-cavity
+        out = capsys.readouterr().out
+        assert f"({model})" in out
+    report = compare_table(open_table(tables["fig7"]), model="smith")
+    # Smith vs V-cavity: a real difference of the microsurface profile (H fig. 10-11);
+    # at 60 deg the f1 albedos differ by ~8 binomial standard errors of 200k paths
+    oblique = report.directions[1]
+    sigma = math.sqrt(oblique.table_model_albedo * (1 - oblique.table_model_albedo) / oblique.paths)
+    assert abs(oblique.model_albedo - oblique.vcavity_f1_albedo) > 5 * sigma
+    assert abs(oblique.table_model_albedo - oblique.model_albedo) > 5 * sigma
+
+
+def test_oren_nayar_on_gaussian_table(tables, capsys):
+    assert main(["compare", str(tables["gaussian"]), "--model", "oren-nayar"]) == 0
+    out = capsys.readouterr().out
+    assert "f1+f2: table" in out and "(oren-nayar)" in out
+
+
+def test_plots(tables, tmp_path, capsys):
+    plots = tmp_path / "plots"
+    assert main(["compare", str(tables["fig7"]), "--plots", str(plots)]) == 0
+    files = sorted(p.name for p in plots.glob("*.png"))
+    assert len(files) == 2 and all(p.stat().st_size > 1000 for p in plots.glob("*.png"))
+
+
+def test_bad_input_exits_2_with_one_line(tables, tmp_path, capsys):
+    text = tmp_path / "notes.txt"
+    text.write_text("not a table\n")
+    other = tmp_path / "other.h5"
+    with h5py.File(other, "w") as h5:
+        h5["x"] = np.arange(3)
+    missing = tmp_path / "missing.h5"
+    shutil.copy(tables["fig7"], missing)
+    with h5py.File(missing, "a") as h5:
+        del h5["counts"]
+    cases = [
+        [str(tmp_path / "nope.h5")],
+        [str(text)],
+        [str(other)],
+        [str(missing)],
+        [str(tables["fig7"]), "--model", "oren-nayar"],  # not a gaussian table
+        [str(tables["gaussian"]), "--model", "smith"],  # Smith Lambda infinite
+        [str(tables["gaussian"]), "--model", "smith-hc"],
+        [str(tables["gaussian_f1_only"]), "--model", "oren-nayar"],  # no order 2
+        [str(tables["gaussian"]), "--lambda-fit", "--model", "smith"],
+        [str(tables["fig7"]), "--significance", "1.5"],
+    ]
+    for args in cases:
+        capsys.readouterr()
+        assert main(["compare"] + args) == 2, args
+        err = capsys.readouterr().err.strip()
+        assert err.startswith("vcavity: error:") and "\n" not in err, (args, err)

@@ -1,0 +1,309 @@
+"""Analytic single-bounce BRDF of a microfacet surface with IL or mirror facets
+(physics.md sec. 7): the specular term F D G2 / (4 |i.n| |o.n|) (W eq. 20, H eq. 29)
+plus the interfaced-Lambertian body integral (IL eq. 12), for each masking choice.
+
+With V-cavity masking (``masking="vcavity"``) the model is exactly the expectation of
+the simulated ``f1`` (physics.md sec. 7). The body integral has no closed form; it is
+integrated deterministically over the distribution's sampling map (physics.md sec. 7
+and 9): ``n_nodes`` Gauss-Legendre nodes in ``t`` times ``2 n_nodes`` midpoints in
+``u2``, with ``u1 = 1 - (1 - t)^2`` (Jacobian ``2 (1 - t)``) concentrating nodes toward
+grazing normals, each node weighted by integrand / pdf. ``n_nodes`` is the accuracy
+control. Measured against a 1024-node reference (Beckmann 0.6, GGX 1 and 0.1x0.5,
+Gaussian 0.4, theta_i 0/60/80 deg, 3000 random o): at the default ``n_nodes = 64`` the
+mean relative error of ``f_b`` is below 1.1e-5 and the largest pointwise error below
+1.2e-4 of the maximum (kinks of G2 limit it to ``O(n_nodes^-2)``); see docs/validation.md.
+
+All public evaluators take the incident direction ``i`` (3,) and outgoing directions
+``o`` (M, 3), unit vectors with ``z >= 0``, and return (M,) arrays in 1/sr; the
+``*_projected`` forms return ``f cos theta_o`` (what a sensor cell integrates,
+physics.md sec. 6) and stay finite at the horizon.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit, prange
+
+from vcavity.analytic.terms import (
+    MASKING_CODES,
+    VCAVITY,
+    distribution_D,
+    facet_fresnel,
+    facet_transmittance,
+    g2,
+    normalize,
+    sample_normal,
+    smith_lambda,
+    table_transmittance,
+    accurate_transmittance_table,
+)
+from vcavity.config import Material
+from vcavity.facet.fresnel import one_minus_r_i
+from vcavity.simulate import distribution_params
+
+DEFAULT_BODY_NODES = 64
+
+
+class ModelNotApplicable(ValueError):
+    """The requested model does not apply to this material (one-line message)."""
+
+
+@njit(cache=True, parallel=True)
+def specular_projected(incident, outgoing, kind, params, eta, mirror, masking, walter_fit):
+    """``f_s(i, o) cos theta_o = F(i.h) D(h) G2(i, o, h) / (4 |i.n|)`` per row of ``outgoing``.
+
+    W eq. 20 / H eq. 29 with ``h = normalize(i + o)`` (physics.md sec. 7); 0 where
+    ``o.n <= 0`` or ``i.h <= 0``.
+    """
+    ix, iy, iz = incident[0], incident[1], incident[2]
+    lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
+    out = np.zeros(outgoing.shape[0])
+    for q in prange(outgoing.shape[0]):
+        ox, oy, oz = outgoing[q, 0], outgoing[q, 1], outgoing[q, 2]
+        if oz <= 0.0 or iz <= 0.0:
+            continue
+        hx, hy, hz, norm = normalize(ix + ox, iy + oy, iz + oz)
+        ih = ix * hx + iy * hy + iz * hz
+        if norm <= 0.0 or ih <= 0.0 or hz <= 0.0:
+            continue
+        d = distribution_D(kind, hx, hy, hz, params)
+        if d <= 0.0:
+            continue
+        lambda_o = 0.0 if masking == VCAVITY else smith_lambda(kind, ox, oy, oz, params, walter_fit)
+        g = g2(masking, ix, iy, iz, ox, oy, oz, hx, hy, hz, lambda_i, lambda_o)
+        out[q] = facet_fresnel(ih, eta, mirror) * d * g / (4.0 * iz)
+    return out
+
+
+@njit(cache=True)
+def body_nodes(incident, kind, params, eta, t_nodes, t_weights, n_u2):
+    """Quadrature nodes of the body integral over ``m`` (IL eq. 12, physics.md sec. 9).
+
+    Product rule in ``(t, u2)``: the given nodes in ``t`` (Gauss-Legendre on [0, 1]),
+    ``n_u2`` midpoints in ``u2`` (periodic), ``u1 = 1 - (1 - t)^2``, and ``m`` from the
+    sampling map of pdf ``p(m) = D(m)(m.n)``. Since ``D dω_m = p(m) dω_m / m.n``, the
+    body integral is ``∫ du1 du2 h(m)/(m.n)``; each returned weight is
+    ``2 (1 - t) w_t / n_u2 * (i.m) T(i, m) / ((i.n)(m.n))`` (the incident half of the
+    integrand), and nodes with ``i.m <= 0`` are dropped.
+
+    Returns
+    -------
+    m : ndarray (K, 3)
+    weight : ndarray (K,)
+    g1_i : ndarray (K,)
+        ``G1_V(i, m)`` (H eq. 49) for the V-cavity masking.
+    """
+    ix, iy, iz = incident[0], incident[1], incident[2]
+    n_t = t_nodes.shape[0]
+    m = np.empty((n_t * n_u2, 3))
+    weight = np.empty(n_t * n_u2)
+    g1_i = np.empty(n_t * n_u2)
+    count = 0
+    for a in range(n_t):
+        t = t_nodes[a]
+        u1 = 1.0 - (1.0 - t) * (1.0 - t)
+        jacobian = 2.0 * (1.0 - t) * t_weights[a] / n_u2
+        for b in range(n_u2):
+            mx, my, mz = sample_normal(kind, u1, (b + 0.5) / n_u2, params)
+            im = ix * mx + iy * my + iz * mz
+            if im <= 0.0 or mz <= 0.0 or iz <= 0.0:
+                continue
+            m[count, 0], m[count, 1], m[count, 2] = mx, my, mz
+            weight[count] = jacobian * im * facet_transmittance(im, eta) / (iz * mz)
+            g = 2.0 * mz * iz / im
+            g1_i[count] = g if g < 1.0 else 1.0
+            count += 1
+    return m[:count].copy(), weight[:count].copy(), g1_i[:count].copy()
+
+
+@njit(cache=True, parallel=True)
+def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, eta, t_table, masking,
+                       walter_fit):
+    """``Σ_k weight_k (o.m_k) T(o, m_k) G2(i, o, m_k)`` per row of ``outgoing``.
+
+    Times the body constant ``kd/(π η² (1 - kd r_i))`` this is ``f_b(i, o) cos theta_o``
+    (IL eq. 12, physics.md sec. 7); the V-cavity G2 is ``min(G1_V(i, m), G1_V(o, m))``
+    (IL eq. 14), the Smith forms depend on ``o`` only through ``Lambda(o)``. ``T`` comes
+    from ``t_table`` (:func:`~vcavity.analytic.terms.accurate_transmittance_table`).
+    """
+    ix, iy, iz = incident[0], incident[1], incident[2]
+    lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
+    out = np.zeros(outgoing.shape[0])
+    n_m = m.shape[0]
+    for q in prange(outgoing.shape[0]):
+        ox, oy, oz = outgoing[q, 0], outgoing[q, 1], outgoing[q, 2]
+        if oz <= 0.0:
+            continue
+        acc = 0.0
+        if masking == VCAVITY:
+            for k in range(n_m):
+                mz = m[k, 2]
+                om = ox * m[k, 0] + oy * m[k, 1] + oz * mz
+                if om <= 0.0:
+                    continue
+                g1_o = 2.0 * mz * oz / om
+                g = g1_i[k]
+                if g1_o < g:
+                    g = g1_o
+                acc += weight[k] * om * table_transmittance(om, t_table, eta) * g
+        else:
+            for k in range(n_m):
+                om = ox * m[k, 0] + oy * m[k, 1] + oz * m[k, 2]
+                if om > 0.0:
+                    acc += weight[k] * om * table_transmittance(om, t_table, eta)
+            lambda_o = smith_lambda(kind, ox, oy, oz, params, walter_fit)
+            # any m with i.m > 0 and o.m > 0 gives the Smith factor (chi+ already applied)
+            acc *= g2(masking, ix, iy, iz, ox, oy, oz, 0.0, 0.0, 1.0, lambda_i, lambda_o)
+        out[q] = acc
+    return out
+
+
+def body_constant(kd: float, eta: float) -> float:
+    """``kd / (π η² (1 - kd r_i))`` of the IL body (IL eq. 8, physics.md sec. 4, 9)."""
+    return kd / (math.pi * eta * eta * ((1.0 - kd) + kd * float(one_minus_r_i(eta))))
+
+
+def lobe_width(material: Material) -> float:
+    """Angular roughness scale of the distribution (radians of ``theta_m``), for quadrature.
+
+    Beckmann/GGX: the smaller alpha; Phong: ``sqrt(2/(alpha_p + 2))`` (W sec. 5.2);
+    Gaussian: sigma.
+    """
+    if material.distribution in ("beckmann", "ggx"):
+        return float(min(material.alpha_x, material.alpha_y))
+    if material.distribution == "phong":
+        return math.sqrt(2.0 / (material.exponent + 2.0))
+    return float(material.sigma)
+
+
+class SingleBounceModel:
+    """Single-bounce BRDF ``f_s + f_b`` of a material (physics.md sec. 7).
+
+    Parameters
+    ----------
+    material : vcavity.config.Material
+        Distribution, facet (``interfaced_lambertian`` or ``mirror``), kd, eta.
+    masking : {"vcavity", "smith", "smith-hc"}
+        G2: V-cavity (IL eq. 14; equals the simulated f1), Smith separable (H eq. 98) or
+        height-correlated (H eq. 99).
+    lambda_fit : bool
+        Beckmann only: Walter's rational fit of Lambda (W eq. 27) instead of the exact
+        erf form (H eq. 69).
+    n_nodes : int
+        Body-integral control: ``n_nodes x 2 n_nodes`` nodes over the sampling map.
+
+    Raises
+    ------
+    ModelNotApplicable
+        Smith masking with the Gaussian distribution (its Smith Lambda is infinite).
+    ValueError
+        Unknown masking, ``lambda_fit`` without Beckmann, ``n_nodes < 1``.
+    """
+
+    def __init__(self, material: Material, masking: str = "vcavity", lambda_fit: bool = False,
+                 n_nodes: int = DEFAULT_BODY_NODES):
+        if masking not in MASKING_CODES:
+            raise ValueError(f"masking = {masking!r}: accepted {', '.join(MASKING_CODES)}")
+        if masking != "vcavity" and material.distribution == "gaussian":
+            raise ModelNotApplicable(
+                f"model {masking!r} does not apply to a gaussian distribution (its Smith Lambda is infinite)")
+        if lambda_fit and material.distribution != "beckmann":
+            raise ValueError("lambda_fit (W eq. 27) exists for the beckmann distribution only")
+        if int(n_nodes) < 1:
+            raise ValueError(f"n_nodes = {n_nodes}: must be >= 1")
+        self.material = material
+        self.masking = masking
+        self.masking_code = MASKING_CODES[masking]
+        self.lambda_fit = bool(lambda_fit)
+        self.n_nodes = int(n_nodes)
+        self.kind, self.params = distribution_params(material)
+        self.mirror = material.facet == "mirror"
+        self.eta = 1.0 if self.mirror else float(material.eta)
+        self.kd = 0.0 if self.mirror else float(material.kd)
+        self.body_factor = body_constant(self.kd, self.eta) if self.kd > 0.0 else 0.0
+        self._t_table = accurate_transmittance_table(self.eta) if self.body_factor else None
+        self.has_specular = self.mirror or self.eta != 1.0
+        self.lobe_width = lobe_width(material)
+        self._nodes_cache: dict = {}
+
+    def __repr__(self):
+        return (f"SingleBounceModel({self.material.distribution}, facet={self.material.facet}, "
+                f"masking={self.masking!r}, n_nodes={self.n_nodes})")
+
+    def specular_projected(self, incident, outgoing) -> np.ndarray:
+        """``f_s cos theta_o`` (W eq. 20), shape (M,)."""
+        i, o = _as_direction(incident), _as_directions(outgoing)
+        if not self.has_specular:
+            return np.zeros(o.shape[0])
+        return specular_projected(i, o, self.kind, self.params, self.eta, self.mirror,
+                                  self.masking_code, self.lambda_fit)
+
+    def _nodes(self, incident):
+        key = tuple(float(c) for c in incident)
+        if key not in self._nodes_cache:
+            self._nodes_cache.clear()  # one incident direction at a time
+            self._nodes_cache[key] = body_nodes(incident, self.kind, self.params, self.eta,
+                                                *_t_rule(self.n_nodes), 2 * self.n_nodes)
+        return self._nodes_cache[key]
+
+    def body_projected(self, incident, outgoing) -> np.ndarray:
+        """``f_b cos theta_o`` (IL eq. 12 by the node quadrature), shape (M,)."""
+        i, o = _as_direction(incident), _as_directions(outgoing)
+        if self.body_factor == 0.0:
+            return np.zeros(o.shape[0])
+        m, weight, g1_i = self._nodes(i)
+        total = body_projected_sum(i, o, m, weight, g1_i, self.kind, self.params, self.eta, self._t_table,
+                                   self.masking_code, self.lambda_fit)
+        return self.body_factor * total
+
+    def projected(self, incident, outgoing) -> np.ndarray:
+        """``f cos theta_o`` with ``f = f_s + f_b``, shape (M,)."""
+        return self.specular_projected(incident, outgoing) + self.body_projected(incident, outgoing)
+
+    def specular(self, incident, outgoing) -> np.ndarray:
+        """Specular BRDF ``F D G2 / (4 |i.n| |o.n|)`` in 1/sr (W eq. 20, H eq. 29)."""
+        return _divide_by_cos(self.specular_projected(incident, outgoing), outgoing)
+
+    def body(self, incident, outgoing) -> np.ndarray:
+        """IL body BRDF (IL eq. 12) in 1/sr."""
+        return _divide_by_cos(self.body_projected(incident, outgoing), outgoing)
+
+    def brdf(self, incident, outgoing) -> np.ndarray:
+        """Single-bounce BRDF ``f_s + f_b`` in 1/sr (physics.md sec. 7)."""
+        return _divide_by_cos(self.projected(incident, outgoing), outgoing)
+
+
+def _t_rule(n):
+    """Gauss-Legendre nodes and weights on [0, 1]."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    return 0.5 * (x + 1.0), 0.5 * w
+
+
+def _as_direction(v) -> np.ndarray:
+    v = np.ascontiguousarray(v, dtype=np.float64).reshape(3)
+    return v
+
+
+def _as_directions(v) -> np.ndarray:
+    return np.ascontiguousarray(np.asarray(v, dtype=np.float64).reshape(-1, 3))
+
+
+def _divide_by_cos(projected, outgoing):
+    cos_o = _as_directions(outgoing)[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(cos_o > 0.0, projected / np.where(cos_o > 0.0, cos_o, 1.0), 0.0)
+
+
+def flat_body_brdf(incident, outgoing, kd: float, eta: float) -> np.ndarray:
+    """Flat limit of the body term: ``kd T(i) T(o) / (π η² (1 - kd r_i))`` (physics.md sec. 7).
+
+    Lambert ``kd/π`` when ``eta = 1``.
+    """
+    i, o = _as_direction(incident), _as_directions(outgoing)
+    from vcavity.facet.fresnel import fresnel_transmittance_array
+
+    t_i = fresnel_transmittance_array(np.array([i[2]]), eta)[0]
+    t_o = fresnel_transmittance_array(o[:, 2], eta)
+    return np.where(o[:, 2] > 0.0, body_constant(kd, eta) * t_i * t_o, 0.0)

@@ -1,0 +1,242 @@
+"""Compare a simulated table with the analytic models (``vcavity compare``).
+
+For each incident direction of a table:
+
+- albedo of every order in the table, and of the model for the order(s) it describes
+  (``f1`` for the single-bounce models, ``f1 + f2`` for Oren-Nayar);
+- relative L1 difference over the hemisphere, ``Σ_c |n_c - e_c| / Σ_c e_c`` (the
+  cosine-weighted cell integrals, physics.md sec. 6), next to the value Monte-Carlo noise
+  alone gives (exact binomial mean absolute deviation per cell, summed);
+- Pearson chi-square of the ``f1`` counts against the V-cavity single-bounce model
+  (always that model: it is the exact expectation of ``f1``, physics.md sec. 7), cells
+  with expected count < 5 pooled, plus the complementary "not f1" category; chi2/dof,
+  p-value, and the largest per-cell deviation in standard errors.
+
+The test passes when every direction's p-value is at least the Sidak-corrected level
+``1 - (1 - significance)^(1/n_directions)``, so the family-wise false-alarm rate is
+``significance``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from vcavity.analytic.cells import cell_integrals
+from vcavity.analytic.oren_nayar import OrenNayarModel
+from vcavity.analytic.single_bounce import DEFAULT_BODY_NODES, ModelNotApplicable, SingleBounceModel
+from vcavity.analytic.statistics import (
+    ChiSquareResult,
+    binomial_mean_abs_deviation,
+    pearson_chi_square,
+    sidak_threshold,
+)
+from vcavity.config import Material
+from vcavity.simulate import incident_vector
+
+MODELS = ("vcavity", "smith", "smith-hc", "oren-nayar")
+DEFAULT_SIGNIFICANCE = 0.01
+
+
+@dataclass(frozen=True)
+class DirectionComparison:
+    """Comparison for one incident direction (see the module docstring)."""
+
+    theta_i: float
+    phi_i: float
+    paths: int
+    table_albedo: dict  # order -> albedo (0 = f_inf)
+    model_orders: tuple  # orders the model describes, summed
+    model_albedo: float
+    table_model_albedo: float  # table albedo of those orders
+    relative_l1: float
+    noise_l1: float  # expected relative L1 from noise alone
+    chi_square: ChiSquareResult
+    vcavity_f1_albedo: float
+    passed: bool
+
+
+@dataclass(frozen=True)
+class ComparisonReport:
+    """All directions of a table compared with one model."""
+
+    path: str
+    model: str
+    material: dict
+    significance: float
+    per_test_level: float
+    directions: list = field(default_factory=list)
+
+    @property
+    def passed(self) -> bool:
+        """True when the f1-vs-V-cavity chi-square passes for every direction."""
+        return all(d.passed for d in self.directions)
+
+
+def material_of_table(table) -> Material:
+    """Rebuild the :class:`~vcavity.config.Material` of a table.
+
+    Raises
+    ------
+    ModelNotApplicable
+        When the stored material cannot be understood.
+    """
+    try:
+        return Material(**{k: v for k, v in table.material.items()})
+    except TypeError as exc:
+        raise ModelNotApplicable(f"material of table {table.path} not understood: {exc}") from None
+
+
+def _orders_for(model: str) -> tuple:
+    return (1, 2) if model == "oren-nayar" else (1,)
+
+
+def build_model(material: Material, model: str, n_nodes: int = DEFAULT_BODY_NODES, lambda_fit: bool = False):
+    """The analytic model object for ``model`` (one of :data:`MODELS`).
+
+    Raises
+    ------
+    ModelNotApplicable
+        If the model does not apply to the material.
+    """
+    if model == "oren-nayar":
+        return OrenNayarModel(material)
+    if model not in MODELS:
+        raise ValueError(f"model = {model!r}: accepted {', '.join(MODELS)}")
+    if lambda_fit and material.distribution != "beckmann":
+        raise ModelNotApplicable("--lambda-fit (Walter's fit, W eq. 27) exists for beckmann tables only")
+    return SingleBounceModel(material, masking=model, lambda_fit=lambda_fit, n_nodes=n_nodes)
+
+
+def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_SIGNIFICANCE,
+                  n_nodes: int = DEFAULT_BODY_NODES, lambda_fit: bool = False,
+                  plots_dir=None) -> ComparisonReport:
+    """Compare every incident direction of ``table`` with ``model``.
+
+    Parameters
+    ----------
+    table : vcavity.io.table.Table
+    model : str
+        One of :data:`MODELS`.
+    significance : float
+        Family-wise false-alarm rate of the chi-square tests (Sidak over directions).
+    n_nodes : int
+        Body-integral control of the single-bounce models.
+    lambda_fit : bool
+        Beckmann Smith models: Walter's rational Lambda.
+    plots_dir : path, optional
+        Write one PNG per direction there (matplotlib, Agg).
+
+    Raises
+    ------
+    ModelNotApplicable
+        Model not applicable to the table's material, or a needed order missing.
+    """
+    material = material_of_table(table)
+    chosen = build_model(material, model, n_nodes, lambda_fit)
+    reference = chosen if model == "vcavity" else build_model(material, "vcavity", n_nodes)
+    orders = _orders_for(model)
+    order_rows = []
+    for k in sorted(set(orders) | {1}):
+        try:
+            order_rows.append(table.order_index(k))
+        except ValueError:
+            raise ModelNotApplicable(
+                f"table {table.path} has no order {k} (orders: {', '.join(map(str, table.order))})") from None
+    sensor = table.sensor
+    level = sidak_threshold(significance, len(table.theta_i))
+    report = ComparisonReport(path=str(table.path), model=model, material=dict(table.material),
+                              significance=significance, per_test_level=level)
+    for j, (theta, phi) in enumerate(zip(table.theta_i, table.phi_i)):
+        i = incident_vector(float(theta), float(phi))
+        paths = int(table.paths[j])
+        f1_integrals = cell_integrals(reference, i, sensor)
+        f1_counts = table.counts[j, table.order_index(1)]
+        chi = pearson_chi_square(f1_counts, paths * f1_integrals, paths)
+        model_integrals = f1_integrals if chosen is reference else cell_integrals(chosen, i, sensor)
+        observed = sum(table.counts[j, table.order_index(k)].astype(np.float64) for k in orders)
+        expected = paths * model_integrals
+        l1 = float(np.sum(np.abs(observed - expected)) / max(np.sum(expected), 1e-300))
+        # noise yardstick: binomial cells around the model (its exact expectation for the
+        # V-cavity f1), around the observed frequencies otherwise
+        p_cells = model_integrals if model == "vcavity" else observed / paths
+        noise = binomial_mean_abs_deviation(paths, p_cells).sum() / max(np.sum(paths * p_cells), 1e-300)
+        report.directions.append(DirectionComparison(
+            theta_i=float(theta), phi_i=float(phi), paths=paths,
+            table_albedo={int(k): float(table.albedo[j, n]) for n, k in enumerate(table.order)},
+            model_orders=orders, model_albedo=float(np.sum(model_integrals)),
+            table_model_albedo=float(observed.sum() / paths), relative_l1=l1, noise_l1=float(noise),
+            chi_square=chi, vcavity_f1_albedo=float(np.sum(f1_integrals)),
+            passed=chi.p_value >= level))
+        if plots_dir is not None:
+            _plot_direction(Path(plots_dir), table, j, observed / (paths * sensor.cell_projected_solid_angle),
+                            model_integrals / sensor.cell_projected_solid_angle,
+                            (f1_counts - paths * f1_integrals) / np.sqrt(np.maximum(paths * f1_integrals, 1.0)),
+                            model, orders)
+    return report
+
+
+def _order_name(k: int) -> str:
+    return "f_inf" if k == 0 else f"f{k}"
+
+
+def format_report(report: ComparisonReport) -> str:
+    """Human-readable text of a :class:`ComparisonReport` (what ``vcavity compare`` prints)."""
+    m = report.material
+    lines = [f"table {report.path}",
+             f"material: {', '.join(f'{k}={v}' for k, v in m.items())}",
+             f"model: {report.model} vs {' + '.join(_order_name(k) for k in _orders_for(report.model))}; "
+             f"chi-square: f1 vs V-cavity model, family level {report.significance:g} "
+             f"(Sidak: {report.per_test_level:.3g} per direction)"]
+    for d in report.directions:
+        c = d.chi_square
+        albedos = "  ".join(f"{_order_name(k)} {v:.6f}" for k, v in sorted(d.table_albedo.items()))
+        lines += [
+            f"theta_i {math.degrees(d.theta_i):6.2f} deg  phi_i {math.degrees(d.phi_i):6.2f} deg  "
+            f"paths {d.paths:,}",
+            f"  table albedo: {albedos}",
+            f"  {'+'.join(_order_name(k) for k in d.model_orders)}: table {d.table_model_albedo:.6f}  "
+            f"model {d.model_albedo:.6f}  ({report.model})",
+            f"  relative L1 {d.relative_l1:.5f}  (noise alone: {d.noise_l1:.5f}, ratio "
+            f"{d.relative_l1 / d.noise_l1 if d.noise_l1 > 0 else float('inf'):.3f})",
+            f"  chi2 f1 vs vcavity: {c.statistic:.1f} / {c.dof} dof = {c.statistic / c.dof:.4f}  "
+            f"p = {c.p_value:.4g}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
+            f"model f1 albedo {d.vcavity_f1_albedo:.6f})",
+            f"  largest cell deviation {c.max_abs_z:.2f} sigma (cell {c.max_z_cell})  "
+            f"-> {'pass' if d.passed else 'FAIL'}",
+        ]
+    lines.append(f"result: {'PASS' if report.passed else 'FAIL'}")
+    return "\n".join(lines)
+
+
+def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, orders):
+    """One PNG per direction: table, model and f1 deviation in sigma, as sensor images."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    folder.mkdir(parents=True, exist_ok=True)
+    n = table.sensor.resolution
+    theta = math.degrees(float(table.theta_i[j]))
+    phi = math.degrees(float(table.phi_i[j]))
+    label = " + ".join(_order_name(k) for k in orders)
+    fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
+    top = float(max(np.max(table_brdf), np.max(model_brdf), 1e-300))
+    for ax, data, title in ((axes[0], table_brdf, f"table {label}"), (axes[1], model_brdf, f"model {model}")):
+        im = ax.imshow(data.reshape(n, n), origin="lower", extent=(-1, 1, -1, 1), vmin=0.0, vmax=top)
+        ax.set_title(title)
+        fig.colorbar(im, ax=ax, label="1/sr")
+    im = axes[2].imshow(z.reshape(n, n), origin="lower", extent=(-1, 1, -1, 1), cmap="RdBu_r", vmin=-4, vmax=4)
+    axes[2].set_title("f1 - V-cavity model (sigma)")
+    fig.colorbar(im, ax=axes[2])
+    for ax in axes:
+        ax.set_xlabel("u (sensor square)")
+        ax.set_ylabel("v")
+    fig.suptitle(f"{Path(str(table.path)).name}: theta_i {theta:.1f} deg, phi_i {phi:.1f} deg")
+    fig.tight_layout()
+    fig.savefig(folder / f"compare_{model}_theta{theta:05.1f}_phi{phi:05.1f}.png", dpi=90)
+    plt.close(fig)
