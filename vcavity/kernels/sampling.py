@@ -18,6 +18,7 @@ import math
 from numba import njit
 
 from vcavity.microfacet import beckmann, gaussian, ggx, phong
+from vcavity.microfacet.common import stretched_slope
 
 
 @njit(cache=True, inline="always")
@@ -44,14 +45,13 @@ def groove_from_disk(dist_kind, a, b, s, params):
     """
     if dist_kind == beckmann.KIND or dist_kind == ggx.KIND:
         # slope = (alpha_x a, alpha_y b) * r / sqrt(s); m = normalize(-slope, 1) (H sec. 5)
-        px = params[0] * a
-        py = params[1] * b
-        q = math.sqrt(px * px + py * py)
         if dist_kind == beckmann.KIND:
             r_over_sqrt_s = math.sqrt(-math.log(s) / s)  # r^2 = -log(1 - u1) = -log s
         else:
             r_over_sqrt_s = math.sqrt(1.0 - s) / s  # r^2 = u1/(1 - u1) = (1 - s)/s
-        return q * r_over_sqrt_s, -px / q, -py / q
+        # stretched_slope is the plain formula for ordinary alpha and stays finite for
+        # alpha down to 1e-300 and up to 1e300 (no under/overflow of the squares)
+        return stretched_slope(r_over_sqrt_s, a, b, params[0], params[1])
     inv = 1.0 / math.sqrt(s)
     if dist_kind == phong.KIND:
         # cos^2 theta_m = s^(2/(alpha_p + 2)) (W eq. 31)
