@@ -37,7 +37,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import tomllib
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -120,7 +120,6 @@ class RunConfig:
     sensor_resolution: int = DEFAULT_SENSOR_RESOLUTION
     output: Path | None = None
     source: str = "<built-in default>"
-    extra: dict = field(default_factory=dict, compare=False)
 
     @property
     def orders(self) -> tuple[int, ...]:
