@@ -18,8 +18,9 @@ the simulation kernels; :class:`EqualAreaSensor` bins with exactly the same code
 
 from functools import cached_property
 
-import numba
 import numpy as np
+
+from vcavity._jit import njit
 
 QUARTER_PI = 0.25 * np.pi
 FOUR_OVER_PI = 4.0 / np.pi
@@ -32,7 +33,7 @@ __all__ = [
 ]
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def square_to_hemisphere(u, v):
     """Map a point of the square ``[-1, 1]^2`` to a unit direction with ``z >= 0``.
 
@@ -70,7 +71,7 @@ def square_to_hemisphere(u, v):
     return disk_x * lift, disk_y * lift, 1.0 - radius_sq
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def hemisphere_to_square(x, y, z):
     """Inverse of :func:`square_to_hemisphere` for upper-hemisphere unit vectors.
 
@@ -113,7 +114,7 @@ def hemisphere_to_square(x, y, z):
     return u, v
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _square_coordinate_to_bin(t, resolution):
     """Bin of square coordinate ``t ∈ [-1, 1]`` among ``resolution`` equal bins.
 
@@ -135,7 +136,7 @@ _ATAN_COEFFS = (1.0, -0.3333314528, 0.1999355085, -0.1420889944, 0.1065626393,
 _ATAN_MAX_ERROR = 2e-8
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def _atan_unit_fast(t):
     """Polynomial atan for ``|t| <= 1`` (A&S 4.4.49), error below ``_ATAN_MAX_ERROR``."""
     t2 = t * t
@@ -151,7 +152,7 @@ def _atan_unit_fast(t):
     return t * p
 
 
-@numba.njit(cache=True, inline="always")
+@njit(cache=True, inline="always")
 def direction_to_cell(x, y, z, resolution):
     """Sensor cell index ``iy * N + ix`` of an upper-hemisphere direction.
 
@@ -211,7 +212,7 @@ def direction_to_cell(x, y, z, resolution):
     return np.int64(iy) * resolution + ix
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _directions_to_cells(directions, resolution):
     """Loop :func:`direction_to_cell` over the rows of an ``(M, 3)`` array."""
     n_directions = directions.shape[0]
@@ -223,7 +224,7 @@ def _directions_to_cells(directions, resolution):
     return cells
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _squares_to_hemisphere(u, v):
     """Loop :func:`square_to_hemisphere` over two 1-D arrays -> ``(M, 3)``."""
     n_points = u.shape[0]

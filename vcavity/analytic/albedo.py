@@ -19,7 +19,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from vcavity._jit import njit
 
 from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
 from vcavity.analytic.terms import VCAVITY, facet_fresnel, g2, sample_normal, smith_lambda

@@ -24,7 +24,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from vcavity._jit import njit
 
 from vcavity.analytic.terms import (
     MASKING_CODES,

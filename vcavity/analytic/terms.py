@@ -12,7 +12,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from vcavity._jit import njit
 
 from vcavity.facet.fresnel import fresnel_dielectric, fresnel_transmittance, fresnel_transmittance_array
 from vcavity.microfacet import beckmann, gaussian, ggx, phong

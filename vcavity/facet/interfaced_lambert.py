@@ -21,7 +21,8 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+
+from vcavity._jit import njit
 
 from vcavity.facet.fresnel import (
     emergence_probability,

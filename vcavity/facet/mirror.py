@@ -1,7 +1,7 @@
 """Perfect mirror facet: every facet hit reflects specularly, ``F == 1`` (physics.md
 sec. 4, "Limits"; energy is conserved, physics.md sec. 8)."""
 
-from numba import njit
+from vcavity._jit import njit
 
 MODEL = "mirror"
 

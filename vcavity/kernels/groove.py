@@ -22,7 +22,8 @@ start on it.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from vcavity._jit import njit
 
 OPENING = 0
 LEFT = 1

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 
-from numba import njit
+from vcavity._jit import njit
 
 from vcavity.microfacet import beckmann, gaussian, ggx, phong
 from vcavity.microfacet.common import stretched_slope

@@ -18,7 +18,9 @@ import math
 from pathlib import Path
 
 import numpy as np
-from numba import njit, prange
+from numba import prange
+
+from vcavity._jit import njit
 
 from vcavity.facet.fresnel import fresnel_dielectric
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface

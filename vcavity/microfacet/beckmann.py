@@ -12,10 +12,10 @@
 
 import math
 
-import numba
 import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle, stretched_slope
+from vcavity._jit import njit
 
 NAME = "beckmann"
 KIND = 0
@@ -42,7 +42,7 @@ def make_params(alpha_x, alpha_y):
     return np.array([alpha_x, alpha_y], dtype=np.float64)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample(u1, u2, params):
     """Sample ``m`` with pdf ``D(m)(m.n)`` (H sec. 5, W eq. 28-29 stretched).
 
@@ -72,7 +72,7 @@ def sample(u1, u2, params):
     return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal(u1, u2, params):
     """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
 
@@ -92,7 +92,7 @@ def sample_normal(u1, u2, params):
     return normal_from_slope_angle(t, c, s)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D(mx, my, mz, params):
     """Beckmann distribution of normals (H eq. 82, physics.md sec. 2).
 
@@ -120,7 +120,7 @@ def D(mx, my, mz, params):
     return math.exp(-num / mz2) / (math.pi * ax * ay * mz2 * mz2)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
@@ -139,7 +139,7 @@ def pdf(mx, my, mz, params):
     return D(mx, my, mz, params) * mz
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_of_a(a):
     """Beckmann Smith ``Lambda(a) = (erf(a) - 1)/2 + exp(-a^2)/(2 a sqrt(pi))`` (H eq. 69).
 
@@ -160,7 +160,7 @@ def smith_lambda_of_a(a):
     return 0.5 * (math.exp(-a * a) * _INV_SQRT_PI / a - math.erfc(a))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def _a_of_direction(vx, vy, vz, ax, ay):
     """``a = 1/(alpha_o tan theta_v)`` with projected roughness (H eq. 80); -1 if v is normal."""
     den2 = vx * vx * ax * ax + vy * vy * ay * ay  # alpha_o^2 tan^2 theta_v vz^2
@@ -169,7 +169,7 @@ def _a_of_direction(vx, vy, vz, ax, ay):
     return vz / math.sqrt(den2)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda(vx, vy, vz, params):
     """Exact Smith ``Lambda(v)`` for anisotropic Beckmann (H eq. 69 with eq. 80).
 
@@ -196,7 +196,7 @@ def smith_lambda(vx, vy, vz, params):
     return smith_lambda_of_a(a)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_walter_fit(vx, vy, vz, params):
     """Walter's rational fit of the Beckmann Smith ``Lambda`` (W eq. 27).
 
@@ -226,7 +226,7 @@ def smith_lambda_walter_fit(vx, vy, vz, params):
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal_many(u1, u2, params):
     """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
     n = u1.shape[0]
@@ -236,7 +236,7 @@ def sample_normal_many(u1, u2, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D_many(m, params):
     """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -245,7 +245,7 @@ def D_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf_many(m, params):
     """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -254,7 +254,7 @@ def pdf_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_many(v, params):
     """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
     out = np.empty(v.shape[0])

@@ -15,8 +15,9 @@ over ``(N, 3)`` float64 arrays for analytic (NumPy-side) code.
 
 import math
 
-import numba
 import numpy as np
+
+from vcavity._jit import njit
 
 #: Largest ``tan theta_m`` a sampler returns. Larger tangents (Beckmann/GGX with
 #: ``alpha`` near the float64 maximum) are clamped: the groove is vertical to within
@@ -29,7 +30,7 @@ _PLAIN_NORM_MIN = 1e-150
 _PLAIN_NORM_MAX = 1e150
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g1_vcavity(vx, vy, vz, mx, my, mz):
     """V-cavity masking ``G1_V(v, m)`` (H eq. 49, physics.md sec. 3).
 
@@ -60,7 +61,7 @@ def g1_vcavity(vx, vy, vz, mx, my, mz):
     return g
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g2_vcavity(ix, iy, iz, ox, oy, oz, mx, my, mz):
     """V-cavity masking-shadowing ``G2_V = min(G1_V(i, m), G1_V(o, m))`` (IL eq. 14).
 
@@ -83,7 +84,7 @@ def g2_vcavity(ix, iy, iz, ox, oy, oz, mx, my, mz):
     return gi if gi < go else go
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g1_smith(lambda_v):
     """Smith masking ``G1_S = 1 / (1 + Lambda(v))`` (H eq. 43).
 
@@ -104,7 +105,7 @@ def g1_smith(lambda_v):
     return 1.0 / (1.0 + lambda_v)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g2_smith_separable(lambda_i, lambda_o):
     """Separable Smith shadowing-masking ``G1_S(i) G1_S(o)`` (H eq. 98).
 
@@ -123,7 +124,7 @@ def g2_smith_separable(lambda_i, lambda_o):
     return 1.0 / ((1.0 + lambda_i) * (1.0 + lambda_o))
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g2_smith_height_correlated(lambda_i, lambda_o):
     """Height-correlated Smith shadowing-masking (H eq. 99).
 
@@ -143,7 +144,7 @@ def g2_smith_height_correlated(lambda_i, lambda_o):
     return 1.0 / (1.0 + lambda_i + lambda_o)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g1_vcavity_many(v, m):
     """Vectorised :func:`g1_vcavity` over rows (H eq. 49).
 
@@ -165,7 +166,7 @@ def g1_vcavity_many(v, m):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def g2_vcavity_many(i, o, m):
     """Vectorised :func:`g2_vcavity` over rows (IL eq. 14).
 
@@ -188,7 +189,7 @@ def g2_vcavity_many(i, o, m):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
     """Unit normal from ``(tan theta_m, cos phi_m, sin phi_m)`` (physics.md sec. 1).
 
@@ -213,7 +214,7 @@ def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
     return sin_theta * cos_phi, sin_theta * sin_phi, mz
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def stretched_slope(r, cos_u, sin_u, alpha_x, alpha_y):
     """Slope-space sample ``r (alpha_x cos_u, alpha_y sin_u)`` as (tan theta_m, cos phi_m, sin phi_m).
 

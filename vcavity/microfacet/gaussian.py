@@ -33,10 +33,10 @@ is well defined, as IL and Oren-Nayar do.
 
 import math
 
-import numba
 import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity._jit import njit
 
 NAME = "gaussian"
 KIND = 3
@@ -144,7 +144,7 @@ def make_params(sigma, n_table=N_TABLE):
     return np.concatenate((header, theta, slope)).astype(np.float64)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def inverse_cdf_theta(u1, params):
     """``theta_m`` with ``P(theta <= theta_m) = u1`` from the table (cubic Hermite in w).
 
@@ -189,7 +189,7 @@ def inverse_cdf_theta(u1, params):
     return theta
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample(u1, u2, params):
     """Sample ``m`` with pdf ``D(m)(m.n)``: tabulated theta (IL eq. 13), ``phi = 2 pi u2``.
 
@@ -213,7 +213,7 @@ def sample(u1, u2, params):
     return t, math.cos(phi), math.sin(phi)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal(u1, u2, params):
     """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
 
@@ -233,7 +233,7 @@ def sample_normal(u1, u2, params):
     return normal_from_slope_angle(t, c, s)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n) = C exp(-theta_m^2/(2 sigma^2))`` (IL eq. 13).
 
@@ -259,7 +259,7 @@ def pdf(mx, my, mz, params):
     return params[1] * weight
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D(mx, my, mz, params):
     """Gaussian distribution of normals ``C exp(-theta^2/(2 sigma^2))/cos theta`` (IL eq. 13).
 
@@ -281,7 +281,7 @@ def D(mx, my, mz, params):
     return pdf(mx, my, mz, params) / mz
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda(vx, vy, vz, params):
     """Smith ``Lambda(v)``: ``inf`` for every ``v != n`` (see the module docstring).
 
@@ -307,7 +307,7 @@ def smith_lambda(vx, vy, vz, params):
     return math.inf
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal_many(u1, u2, params):
     """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
     n = u1.shape[0]
@@ -317,7 +317,7 @@ def sample_normal_many(u1, u2, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D_many(m, params):
     """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -326,7 +326,7 @@ def D_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf_many(m, params):
     """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -335,7 +335,7 @@ def pdf_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_many(v, params):
     """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
     out = np.empty(v.shape[0])

@@ -12,10 +12,10 @@
 
 import math
 
-import numba
 import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle, stretched_slope
+from vcavity._jit import njit
 
 NAME = "ggx"
 KIND = 1
@@ -41,7 +41,7 @@ def make_params(alpha_x, alpha_y):
     return np.array([alpha_x, alpha_y], dtype=np.float64)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample(u1, u2, params):
     """Sample ``m`` with pdf ``D(m)(m.n)`` (H sec. 5, W eq. 35-36 stretched).
 
@@ -72,7 +72,7 @@ def sample(u1, u2, params):
     return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal(u1, u2, params):
     """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
 
@@ -92,7 +92,7 @@ def sample_normal(u1, u2, params):
     return normal_from_slope_angle(t, c, s)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D(mx, my, mz, params):
     """GGX distribution of normals (H eq. 85, physics.md sec. 2).
 
@@ -121,7 +121,7 @@ def D(mx, my, mz, params):
     return 1.0 / (math.pi * ax * ay * s * s)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
@@ -140,7 +140,7 @@ def pdf(mx, my, mz, params):
     return D(mx, my, mz, params) * mz
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda(vx, vy, vz, params):
     """Exact Smith ``Lambda(v)`` for anisotropic GGX (H eq. 72 with eq. 80).
 
@@ -175,7 +175,7 @@ def smith_lambda(vx, vy, vz, params):
     return 0.5 * b / (math.sqrt(1.0 + b) + 1.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal_many(u1, u2, params):
     """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
     n = u1.shape[0]
@@ -185,7 +185,7 @@ def sample_normal_many(u1, u2, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D_many(m, params):
     """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -194,7 +194,7 @@ def D_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf_many(m, params):
     """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -203,7 +203,7 @@ def pdf_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_many(v, params):
     """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
     out = np.empty(v.shape[0])

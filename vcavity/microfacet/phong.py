@@ -18,11 +18,11 @@
 
 import math
 
-import numba
 import numpy as np
 
 from vcavity.microfacet.beckmann import smith_lambda_of_a
 from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity._jit import njit
 
 NAME = "phong"
 KIND = 2
@@ -48,7 +48,7 @@ def make_params(exponent):
     return np.array([exponent], dtype=np.float64)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample(u1, u2, params):
     """Sample ``m`` with pdf ``D(m)(m.n)`` (W eq. 31-32).
 
@@ -78,7 +78,7 @@ def sample(u1, u2, params):
     return math.sqrt(t2), math.cos(phi), math.sin(phi)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal(u1, u2, params):
     """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
 
@@ -98,7 +98,7 @@ def sample_normal(u1, u2, params):
     return normal_from_slope_angle(t, c, s)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D(mx, my, mz, params):
     """Phong distribution of normals (W eq. 30).
 
@@ -120,7 +120,7 @@ def D(mx, my, mz, params):
     return (e + 2.0) / _TWO_PI * mz**e
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
@@ -142,7 +142,7 @@ def pdf(mx, my, mz, params):
     return (e + 2.0) / _TWO_PI * mz ** (e + 1.0)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda(vx, vy, vz, params):
     """APPROXIMATE Smith ``Lambda(v)`` for Phong (W sec. 5.2, H eq. 69).
 
@@ -172,7 +172,7 @@ def smith_lambda(vx, vy, vz, params):
     return smith_lambda_of_a(a)
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def sample_normal_many(u1, u2, params):
     """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
     n = u1.shape[0]
@@ -182,7 +182,7 @@ def sample_normal_many(u1, u2, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def D_many(m, params):
     """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -191,7 +191,7 @@ def D_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def pdf_many(m, params):
     """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
     out = np.empty(m.shape[0])
@@ -200,7 +200,7 @@ def pdf_many(m, params):
     return out
 
 
-@numba.njit(cache=True)
+@njit(cache=True)
 def smith_lambda_many(v, params):
     """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
     out = np.empty(v.shape[0])
