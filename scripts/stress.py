@@ -43,7 +43,7 @@ import numpy as np
 from vcavity.config import validate
 from vcavity.io.table import open_table, write_table
 from vcavity.rng import BLOCK_SIZE
-from vcavity.sensor import direction_to_cell
+from vcavity.binning import direction_to_cell
 from vcavity.simulate import incident_vector, simulate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # also when imported by the tests

@@ -22,7 +22,7 @@ from numba import njit, prange
 from vcavity.config import validate
 from vcavity.facet.fresnel import emergence_probability, fresnel_dielectric, fresnel_transmittance
 from vcavity.microfacet import beckmann, gaussian, ggx, phong
-from vcavity.sensor import direction_to_cell
+from vcavity.binning import direction_to_cell
 from vcavity.simulate import distribution_params, incident_vector
 
 

@@ -18,7 +18,7 @@ from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.kernels.sampling import groove_from_disk
 from vcavity.microfacet import DISTRIBUTIONS, beckmann, ggx
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
-from vcavity.sensor import direction_to_cell
+from vcavity.binning import direction_to_cell
 from vcavity.simulate import Simulation, simulate
 
 U_ENDS = [0.0, 2.0**-53, 1e-300, 0.25, 0.5, 0.75, 1.0 - 2.0**-52, 1.0 - 2.0**-53]

@@ -9,12 +9,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from vcavity.sensor import (
-    EqualAreaSensor,
-    direction_to_cell,
-    hemisphere_to_square,
-    square_to_hemisphere,
-)
+from vcavity.binning import direction_to_cell, hemisphere_to_square, square_to_hemisphere
+from vcavity.sensor import EqualAreaSensor
 
 RESOLUTIONS = [1, 2, 57, 100]
 

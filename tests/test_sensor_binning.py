@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from vcavity.sensor import (
+from vcavity.binning import (
     _ATAN_MAX_ERROR,
     _atan_unit_fast,
     _square_coordinate_to_bin,

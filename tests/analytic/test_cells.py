@@ -18,7 +18,8 @@ from vcavity.analytic.cells import cell_average, cell_integrals, expected_counts
 from vcavity.analytic.oren_nayar import LambertModel
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.config import validate
-from vcavity.sensor import EqualAreaSensor, square_to_hemisphere
+from vcavity.binning import square_to_hemisphere
+from vcavity.sensor import EqualAreaSensor
 from vcavity.simulate import incident_vector
 
 

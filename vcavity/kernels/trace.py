@@ -26,7 +26,7 @@ from vcavity.facet.fresnel import fresnel_dielectric
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface
 from vcavity.kernels.sampling import groove_from_disk
 from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
-from vcavity.sensor import direction_to_cell
+from vcavity.binning import direction_to_cell
 
 # facet modes: which facet events can happen (physics.md sec. 4, limits)
 MIRROR = 0  # F = 1: always reflect
@@ -228,7 +228,7 @@ def _source_tag() -> int:
     for sub in ("kernels", "facet", "microfacet"):
         for path in sorted((root / sub).glob("*.py")):
             digest.update(path.read_bytes())
-    for name in ("sensor.py", "rng.py"):
+    for name in ("binning.py", "rng.py", "_jit.py"):
         digest.update((root / name).read_bytes())
     return int.from_bytes(digest.digest(), "little") >> 1
 
