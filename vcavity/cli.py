@@ -17,13 +17,7 @@ EXIT_OK = 0
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
 
-_RUN_EPILOG = """\
-config file (TOML; every key optional except the distribution's roughness):
-  [material]   distribution = "beckmann" | "ggx" | "phong" | "gaussian"
-               alpha = 0.6  (or alpha_x, alpha_y: anisotropic; beckmann, ggx)
-               exponent = 20.0 (phong)   sigma = 0.3 (gaussian, radians)
-               facet = "interfaced_lambertian" | "mirror"
-               kd = 0.9 in [0, 1] (0: specular dielectric)   eta = 1.5 >= 1 (1: Lambertian)
+_RUN_EPILOG_TAIL = """\
   [incidence]  theta_i_deg = [0, 30, 60, 80]   phi_i_deg = 0   paths = 10000000
                (phi_i_deg and paths: one value, or one per theta_i_deg)
   [simulation] seed = 1   max_order = 3   max_bounces = 10000
@@ -40,6 +34,21 @@ without CONFIG: the built-in default run, the IL paper's figure 7(b) material
 examples in runs/. The same config and seed give the same table for any
 --threads and --chunk-blocks.
 """
+
+
+def run_epilog() -> str:
+    """``vcavity run --help`` epilog: config keys, generated from the registries."""
+    from vcavity.facet import registry as facets
+    from vcavity.microfacet import registry as distributions
+
+    lines = ["config file (TOML):",
+             f"  [material]   distribution = {' | '.join(repr(n) for n in distributions.NAMES)} "
+             f"(default 'beckmann'), with its parameters:"]
+    lines += [f"      {line}" for line in distributions.help_lines()]
+    lines.append(f"               facet = {' | '.join(repr(n) for n in facets.NAMES)} "
+                 "(default 'interfaced_lambertian'), with its parameters:")
+    lines += [f"      {line}" for line in facets.help_lines()]
+    return "\n".join(lines) + "\n" + _RUN_EPILOG_TAIL
 
 
 def _positive_int(text: str) -> int:
@@ -82,7 +91,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="simulate a run config and write an HDF5 table",
         description="Simulate light paths in V-cavities for each incident direction of a run "
         "config and write the BRDF table per bounce order to HDF5.",
-        epilog=_RUN_EPILOG,
+        epilog=run_epilog(),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run config (default: built-in figure 7 run)")
@@ -185,9 +194,11 @@ def _cmd_run(args) -> int:
     except KeyboardInterrupt:
         print("vcavity: interrupted; no table written", file=sys.stderr)
         return EXIT_INTERRUPTED
+    cfg = dataclasses.replace(cfg, output=out)  # the table records where it was written
     write_table(
         out,
         theta_i=result.theta_i, phi_i=result.phi_i, order=result.order, counts=result.counts,
+        theta_i_deg=[d.theta_i_deg for d in cfg.incidence], phi_i_deg=[d.phi_i_deg for d in cfg.incidence],
         paths=result.paths, absorbed_paths=result.absorbed_paths, truncated_paths=result.truncated_paths,
         degenerate_paths=result.degenerate_paths, max_bounces_seen=result.max_bounces_seen,
         sensor=result.sensor, material=cfg.material.to_dict(), config=cfg.to_dict(), seed=cfg.seed,

@@ -34,7 +34,7 @@ from vcavity.analytic.statistics import (
     pearson_chi_square,
     sidak_threshold,
 )
-from vcavity.config import Material
+from vcavity.config import ConfigError, Material
 from vcavity.simulate import incident_vector
 
 MODELS = ("vcavity", "smith", "smith-hc", "oren-nayar")
@@ -77,16 +77,22 @@ class ComparisonReport:
 
 
 def material_of_table(table) -> Material:
-    """Rebuild the :class:`~vcavity.config.Material` of a table.
+    """Rebuild and validate the :class:`~vcavity.config.Material` of a table.
+
+    Format-v1 tables of mirror facets also stored ``kd = 0`` and ``eta = 1`` (fields
+    every material carried then); those are dropped.
 
     Raises
     ------
     ModelNotApplicable
-        When the stored material cannot be understood.
+        When the stored material is not a valid material of this vcavity.
     """
+    stored = dict(table.material)
+    if stored.get("facet") == "mirror" and stored.get("kd") == 0.0 and stored.get("eta") == 1.0:
+        del stored["kd"], stored["eta"]
     try:
-        return Material(**{k: v for k, v in table.material.items()})
-    except TypeError as exc:
+        return Material.from_dict(stored, table="/material")
+    except ConfigError as exc:
         raise ModelNotApplicable(f"material of table {table.path} not understood: {exc}") from None
 
 

@@ -1,6 +1,8 @@
 """Run configuration: TOML in, validated frozen dataclasses out.
 
-All validation and unit conversion happens here, once, at the edge: angles are given in
+All validation and unit conversion happens here, once, at the edge (the parameters of
+each distribution and facet model are declared by its module and read through the
+registries): angles are given in
 degrees in TOML (keys ending in ``_deg``) and stored in radians; everything downstream
 trusts these objects. Every error is a :class:`ConfigError` whose message is one line
 naming the field, the offending value and what is accepted.
@@ -8,13 +10,11 @@ naming the field, the offending value and what is accepted.
 A run config has four tables::
 
     [material]                     # the microsurface
-    distribution = "beckmann"      # beckmann | ggx | phong | gaussian
-    alpha = 0.6                    # beckmann/ggx: alpha, or alpha_x and alpha_y (> 0)
-    # exponent = 20.0              # phong: exponent alpha_p >= 0
-    # sigma = 0.3                  # gaussian: std. dev. of theta_m in radians (> 0)
-    facet = "interfaced_lambertian"  # or "mirror"
-    kd = 0.9                       # IL body albedo in [0, 1]  (0: specular dielectric)
-    eta = 1.5                      # IL relative index >= 1    (1: Lambertian facets)
+    distribution = "beckmann"      # any registered distribution (microfacet/registry.py)
+    alpha = 0.6                    # ... and its parameters (see `vcavity run --help`)
+    facet = "interfaced_lambertian"  # any registered facet model (facet/registry.py)
+    kd = 0.9                       # ... and its parameters
+    eta = 1.5
 
     [incidence]
     theta_i_deg = [0, 30, 60, 80]  # polar angles of the light, degrees, in [0, 90)
@@ -41,8 +41,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-DISTRIBUTIONS = ("beckmann", "ggx", "phong", "gaussian")
-FACETS = ("interfaced_lambertian", "mirror")
+from vcavity.facet import registry as facets
+from vcavity.microfacet import registry as distributions
+from vcavity.parameters import ParameterError
 
 DEFAULT_PATHS = 10_000_000
 DEFAULT_MAX_ORDER = 3
@@ -61,50 +62,67 @@ class ConfigError(ValueError):
 
 @dataclass(frozen=True)
 class Material:
-    """Microsurface: a distribution of V-groove normals and a facet model.
+    """Microsurface: a distribution of V-groove normals and a facet model, each with its
+    own validated parameters (canonical keys, as the registries define them).
 
     Attributes
     ----------
     distribution : str
-        One of ``DISTRIBUTIONS``.
-    alpha_x, alpha_y : float or None
-        Beckmann / GGX roughness along x and y (W/H convention; equal when isotropic).
-    exponent : float or None
-        Phong exponent alpha_p (W eq. 30).
-    sigma : float or None
-        Gaussian (Oren-Nayar) standard deviation of theta_m, radians (IL eq. 13).
+        A registered distribution (:mod:`vcavity.microfacet.registry`).
     facet : str
-        ``"interfaced_lambertian"`` or ``"mirror"``.
-    kd, eta : float
-        IL body albedo in [0, 1] and relative index >= 1 (mirror: kd = 0, eta = 1, unused).
+        A registered facet model (:mod:`vcavity.facet.registry`).
+    distribution_params : dict
+        Canonical parameter values of the distribution (e.g. ``alpha_x``, ``alpha_y``).
+    facet_params : dict
+        Canonical parameter values of the facet model (e.g. ``kd``, ``eta``; mirror: none).
     """
 
     distribution: str
     facet: str
-    alpha_x: float | None = None
-    alpha_y: float | None = None
-    exponent: float | None = None
-    sigma: float | None = None
-    kd: float = 0.0
-    eta: float = 1.0
+    distribution_params: dict = dataclasses.field(default_factory=dict)
+    facet_params: dict = dataclasses.field(default_factory=dict)
 
     @property
     def isotropic(self) -> bool:
         """True when the table cannot depend on phi_i."""
-        return self.alpha_x is None or self.alpha_x == self.alpha_y
+        return distributions.is_isotropic(self.distribution, self.distribution_params)
 
     def to_dict(self) -> dict[str, Any]:
-        """The fields that apply to this material (None fields dropped)."""
-        return {k: v for k, v in dataclasses.asdict(self).items() if v is not None}
+        """Flat ``{"distribution", <its parameters>, "facet", <its parameters>}`` (what tables store)."""
+        return {"distribution": self.distribution, **self.distribution_params, "facet": self.facet,
+                **self.facet_params}
+
+    @classmethod
+    def from_dict(cls, values: dict[str, Any], table: str = "material") -> "Material":
+        """Validate a flat material dict (config ``[material]`` or a table's ``/material``).
+
+        Raises
+        ------
+        ConfigError
+            One line naming the field, the value and what is accepted.
+        """
+        return _validate_material(dict(values), table)
 
 
 @dataclass(frozen=True)
 class Incidence:
-    """One incident direction with its path budget (angles in radians)."""
+    """One incident direction with its path budget.
+
+    ``theta_i``, ``phi_i`` in radians (``math.radians`` of the degrees, which key the
+    random streams); ``theta_i_deg``, ``phi_i_deg`` exactly as the user wrote them.
+    """
 
     theta_i: float
     phi_i: float
     paths: int
+    theta_i_deg: float | None = None
+    phi_i_deg: float | None = None
+
+    def __post_init__(self):
+        if self.theta_i_deg is None:
+            object.__setattr__(self, "theta_i_deg", math.degrees(self.theta_i))
+        if self.phi_i_deg is None:
+            object.__setattr__(self, "phi_i_deg", math.degrees(self.phi_i))
 
 
 @dataclass(frozen=True)
@@ -137,8 +155,8 @@ class RunConfig:
         return {
             "material": self.material.to_dict(),
             "incidence": {
-                "theta_i_deg": [math.degrees(d.theta_i) for d in self.incidence],
-                "phi_i_deg": [math.degrees(d.phi_i) for d in self.incidence],
+                "theta_i_deg": [d.theta_i_deg for d in self.incidence],
+                "phi_i_deg": [d.phi_i_deg for d in self.incidence],
                 "paths": [d.paths for d in self.incidence],
             },
             "simulation": {
@@ -192,10 +210,10 @@ def _positive(field_name: str, value: Any) -> float:
     return x
 
 
-def _check_keys(table_name: str, table: Any, allowed: tuple[str, ...]) -> dict:
+def _check_keys(table_name: str, table: Any, allowed: tuple[str, ...] | None) -> dict:
     if not isinstance(table, dict):
         _fail(table_name, table, "must be a TOML table")
-    for key in table:
+    for key in table if allowed is not None else ():
         if key not in allowed:
             raise ConfigError(
                 f"{table_name}.{key} = {_fmt(table[key])}: unknown key; accepted keys: {', '.join(allowed)}"
@@ -214,64 +232,49 @@ def _list_or_scalar(field_name: str, value: Any, n: int | None) -> list:
 
 # ---------------------------------------------------------------------------------------
 
-_MATERIAL_KEYS = ("distribution", "alpha", "alpha_x", "alpha_y", "exponent", "sigma", "facet", "kd", "eta")
 _INCIDENCE_KEYS = ("theta_i_deg", "phi_i_deg", "paths")
 _SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sensor_resolution")
 _OUTPUT_KEYS = ("path",)
 _TOP_KEYS = ("material", "incidence", "simulation", "output")
 
 
-def _validate_material(raw: dict) -> Material:
-    raw = _check_keys("material", raw, _MATERIAL_KEYS)
+def _owner_of(key: str) -> str | None:
+    """Which kind of component declares config key ``key`` (for messages), if any."""
+    if any(key in distributions.config_keys(name) for name in distributions.NAMES):
+        return "distribution"
+    if any(key in facets.config_keys(name) for name in facets.NAMES):
+        return "facet"
+    return None
+
+
+def _validate_material(raw: dict, table: str = "material") -> Material:
+    raw = _check_keys(table, raw, None)
     dist = raw.get("distribution", "beckmann")
-    if dist not in DISTRIBUTIONS:
-        _fail("material.distribution", dist, f"accepted: {', '.join(DISTRIBUTIONS)}")
+    if dist not in distributions.NAMES:
+        _fail(f"{table}.distribution", dist, f"accepted: {', '.join(distributions.NAMES)}")
     facet = raw.get("facet", "interfaced_lambertian")
-    if facet not in FACETS:
-        _fail("material.facet", facet, f"accepted: {', '.join(FACETS)}")
-
-    def forbid(keys: tuple[str, ...], why: str) -> None:
-        for key in keys:
-            if key in raw:
-                _fail(f"material.{key}", raw[key], why)
-
-    params: dict[str, float] = {}
-    if dist in ("beckmann", "ggx"):
-        forbid(("exponent", "sigma"), f"not a parameter of distribution {dist!r} (use alpha or alpha_x/alpha_y)")
-        if "alpha" in raw:
-            forbid(("alpha_x", "alpha_y"), "give either alpha (isotropic) or alpha_x and alpha_y, not both")
-            params["alpha_x"] = params["alpha_y"] = _positive("material.alpha", raw["alpha"])
-        elif "alpha_x" in raw or "alpha_y" in raw:
-            for key in ("alpha_x", "alpha_y"):
-                if key not in raw:
-                    raise ConfigError(f"material.{key} is missing: anisotropic roughness needs both alpha_x and alpha_y (> 0)")
-                params[key] = _positive(f"material.{key}", raw[key])
-        else:
-            raise ConfigError(f"material.alpha is missing: distribution {dist!r} needs alpha (> 0) or alpha_x and alpha_y")
-    elif dist == "phong":
-        forbid(("alpha", "alpha_x", "alpha_y", "sigma"), "not a parameter of distribution 'phong' (use exponent)")
-        if "exponent" not in raw:
-            raise ConfigError("material.exponent is missing: distribution 'phong' needs exponent (>= 0)")
-        e = _number("material.exponent", raw["exponent"])
-        if e < 0:
-            _fail("material.exponent", raw["exponent"], "must be >= 0")
-        params["exponent"] = e
-    else:
-        forbid(("alpha", "alpha_x", "alpha_y", "exponent"), "not a parameter of distribution 'gaussian' (use sigma, radians)")
-        if "sigma" not in raw:
-            raise ConfigError("material.sigma is missing: distribution 'gaussian' needs sigma (radians, > 0)")
-        params["sigma"] = _positive("material.sigma", raw["sigma"])
-
-    if facet == "mirror":
-        forbid(("kd", "eta"), "not used by facet 'mirror' (a perfect mirror, F = 1)")
-        return Material(distribution=dist, facet=facet, **params)
-    kd = _number("material.kd", raw.get("kd", 0.0))
-    if not 0.0 <= kd <= 1.0:
-        _fail("material.kd", raw["kd"], "must be in [0, 1]")
-    eta = _number("material.eta", raw.get("eta", 1.5))
-    if not eta >= 1.0:
-        _fail("material.eta", raw["eta"], "must be >= 1 (relative index of the facet's dielectric interface)")
-    return Material(distribution=dist, facet=facet, kd=kd, eta=eta, **params)
+    if facet not in facets.NAMES:
+        _fail(f"{table}.facet", facet, f"accepted: {', '.join(facets.NAMES)}")
+    dist_keys = distributions.config_keys(dist)
+    facet_keys = facets.config_keys(facet)
+    for key, value in raw.items():
+        if key in ("distribution", "facet") or key in dist_keys or key in facet_keys:
+            continue
+        owner = _owner_of(key)
+        if owner == "distribution":
+            _fail(f"{table}.{key}", value, f"not a parameter of distribution {dist!r} "
+                  f"(it takes: {', '.join(dist_keys) or 'nothing'})")
+        if owner == "facet":
+            _fail(f"{table}.{key}", value, f"not used by facet {facet!r} "
+                  f"(it takes: {', '.join(facet_keys) or 'nothing'})")
+        accepted = ("distribution", *dist_keys, "facet", *facet_keys)
+        _fail(f"{table}.{key}", value, f"unknown key; accepted keys: {', '.join(accepted)}")
+    try:
+        return Material(distribution=dist, facet=facet,
+                        distribution_params=distributions.parse(dist, raw, table),
+                        facet_params=facets.parse(facet, raw, table))
+    except ParameterError as exc:
+        raise ConfigError(str(exc)) from None
 
 
 def _validate_incidence(raw: dict) -> tuple[Incidence, ...]:
@@ -287,7 +290,8 @@ def _validate_incidence(raw: dict) -> tuple[Incidence, ...]:
             _fail("incidence.theta_i_deg", thetas[k], "must be in [0, 90) degrees")
         p = _number("incidence.phi_i_deg", phis[k if len(phis) > 1 else 0])
         count = _integer("incidence.paths", paths[k if len(paths) > 1 else 0], 1, 2**62)
-        out.append(Incidence(theta_i=math.radians(t), phi_i=math.radians(p), paths=count))
+        out.append(Incidence(theta_i=math.radians(t), phi_i=math.radians(p), paths=count,
+                             theta_i_deg=thetas[k], phi_i_deg=phis[k if len(phis) > 1 else 0]))
     return tuple(out)
 
 
@@ -374,15 +378,6 @@ def default_config() -> RunConfig:
 def _as_raw(cfg: RunConfig) -> dict[str, Any]:
     d = cfg.to_dict()
     d.pop("source")
-    mat = dict(d["material"])
-    if "alpha_x" in mat:
-        if mat["alpha_x"] == mat["alpha_y"]:
-            mat["alpha"] = mat.pop("alpha_x")
-            mat.pop("alpha_y")
-    if mat.get("facet") == "mirror":
-        mat.pop("kd", None)
-        mat.pop("eta", None)
-    d["material"] = mat
     if d["output"]["path"] is None:
         d["output"] = {}
     return d

@@ -12,21 +12,17 @@ def _order_label(k: int) -> str:
 
 
 def format_material(material: dict) -> str:
-    """One line describing a material dict as stored in a table."""
-    dist = material.get("distribution", "?")
-    if "alpha_x" in material:
-        ax, ay = material["alpha_x"], material["alpha_y"]
-        rough = f"alpha={ax:g}" if ax == ay else f"alpha_x={ax:g} alpha_y={ay:g}"
-    elif "exponent" in material:
-        rough = f"exponent={material['exponent']:g}"
-    elif "sigma" in material:
-        rough = f"sigma={material['sigma']:g} rad"
-    else:
-        rough = ""
-    facet = material.get("facet", "?")
-    if facet == "mirror":
-        return f"{dist} {rough}, mirror facets"
-    return f"{dist} {rough}, interfaced Lambertian facets kd={material.get('kd', 0):g} eta={material.get('eta', 1):g}"
+    """One line describing a material dict as stored in a table (``/material``).
+
+    Generic over distributions and facet models: the distribution and facet names, each
+    followed by its parameters as stored (isotropic ``alpha_x == alpha_y`` shown as
+    ``alpha``). Needs no registry, so reading a table imports no JIT code.
+    """
+    params = {k: v for k, v in material.items() if k not in ("distribution", "facet")}
+    if "alpha_x" in params and params.get("alpha_x") == params.get("alpha_y"):
+        params = {"alpha": params.pop("alpha_x"), **{k: v for k, v in params.items() if k != "alpha_y"}}
+    text = " ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in params.items())
+    return f"{material.get('distribution', '?')}, {material.get('facet', '?')} facets: {text}".rstrip(": ")
 
 
 def format_summary(table, verbose: bool = False) -> str:

@@ -17,20 +17,9 @@ import numba
 import numpy as np
 
 from vcavity.config import Material, RunConfig
-from vcavity.facet.fresnel import emergence_probability
-from vcavity.kernels.trace import (
-    DIELECTRIC,
-    INTERFACED_LAMBERTIAN,
-    LAMBERTIAN,
-    MIRROR,
-    STAT_ABSORBED,
-    STAT_DEGENERATE,
-    STAT_MAX_BOUNCES,
-    STAT_TRUNCATED,
-    fresnel_brackets,
-    get_kernel,
-)
-from vcavity.microfacet import DISTRIBUTIONS
+from vcavity.facet import registry as facets
+from vcavity.kernels.trace import STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED, get_kernel
+from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor import EqualAreaSensor
 
@@ -39,27 +28,22 @@ from vcavity.sensor import EqualAreaSensor
 DEFAULT_CHUNK_BLOCKS = 512
 
 
-def facet_mode(material: Material) -> int:
-    """The kernel's facet mode for a material (physics.md sec. 4, limits)."""
-    if material.facet == "mirror":
-        return MIRROR
-    if material.eta == 1.0:
-        return LAMBERTIAN  # F == 0: never evaluate Fresnel
-    if material.kd == 0.0:
-        return DIELECTRIC  # never sample the body
-    return INTERFACED_LAMBERTIAN
+@dataclass(frozen=True)
+class Scene:
+    """What the kernel needs of a material, resolved through the registries once."""
 
+    dist_kind: int
+    params: np.ndarray
+    facet_kind: int
+    facet_variant: int
+    facet_data: np.ndarray
 
-def distribution_params(material: Material) -> tuple[int, np.ndarray]:
-    """(kind, params array) of the material's normal distribution."""
-    module = DISTRIBUTIONS[material.distribution]
-    if material.distribution in ("beckmann", "ggx"):
-        params = module.make_params(material.alpha_x, material.alpha_y)
-    elif material.distribution == "phong":
-        params = module.make_params(material.exponent)
-    else:
-        params = module.make_params(material.sigma)
-    return module.KIND, np.ascontiguousarray(params, dtype=np.float64)
+    @classmethod
+    def of(cls, material: Material) -> "Scene":
+        """Parameter arrays and compile-time constants of ``material``."""
+        dist_kind, params = distributions.params_from(material.distribution, material.distribution_params)
+        facet_kind, variant, data = facets.prepare(material.facet, material.facet_params)
+        return cls(dist_kind, params, facet_kind, variant, data)
 
 
 def incident_vector(theta_i: float, phi_i: float) -> np.ndarray:
@@ -107,13 +91,9 @@ class Simulation:
         self.chunk_blocks = int(chunk_blocks) if chunk_blocks else DEFAULT_CHUNK_BLOCKS
         if self.chunk_blocks < 1:
             raise ValueError(f"chunk_blocks = {chunk_blocks}: must be >= 1")
-        m = config.material
-        self.dist_kind, self.params = distribution_params(m)
-        self.facet_mode = facet_mode(m)
-        self.emergence_prob = 1.0 if m.facet == "mirror" else float(emergence_probability(m.kd, m.eta))
-        self.fresnel_brackets = fresnel_brackets(m.eta)
+        self.scene = Scene.of(config.material)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
-        self.kernel = get_kernel(self.dist_kind, self.facet_mode)
+        self.kernel = get_kernel(self.scene.dist_kind, self.scene.facet_kind, self.scene.facet_variant)
         self.compile_time_s = 0.0
 
     @property
@@ -122,9 +102,9 @@ class Simulation:
 
     def _call(self, incident, key, first_block, n_blocks, n_paths):
         c = self.config
-        return self.kernel(incident, key, first_block, n_blocks, n_paths, self.params,
-                           float(c.material.eta), self.fresnel_brackets, self.emergence_prob, c.effective_max_bounces,
-                           c.max_order, c.sensor_resolution, self.threads)
+        return self.kernel(incident, key, first_block, n_blocks, n_paths, self.scene.params,
+                           self.scene.facet_data, c.effective_max_bounces, c.max_order, c.sensor_resolution,
+                           self.threads)
 
     def compile(self) -> float:
         """Compile (or load from cache) the kernel; return the seconds it took."""

@@ -19,11 +19,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+from numba import literally
 
 from vcavity._jit import njit
 
 from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
-from vcavity.analytic.terms import VCAVITY, facet_fresnel, g2, sample_normal, smith_lambda
+from vcavity.analytic.terms import VCAVITY, g2, smith_lambda
+from vcavity.facet import registry as facets
+from vcavity.microfacet import registry as distributions
 
 
 def hemispherical_albedo(model, incident, n_mu: int = 96, n_phi: int = 192, lower: bool = False) -> float:
@@ -57,12 +60,15 @@ def hemispherical_albedo(model, incident, n_mu: int = 96, n_phi: int = 192, lowe
 
 
 @njit(cache=True)
-def _specular_albedo(incident, kind, params, eta, mirror, masking, walter_fit, t_nodes, t_weights, n_u2):
+def _specular_albedo(incident, kind, params, facet_kind, facet_data, masking, walter_fit, t_nodes, t_weights,
+                     n_u2):
     """``∫ F(i.h) G2(i, o, h) (i.h) / ((i.n)(h.n)) p(h) dω_h`` with ``o = 2 (i.h) h - i``.
 
     W eq. 14 Jacobian: ``f_s cos θ_o dω_o = F D G2 (i.h) / (i.n) dω_h``; ``D dω_h =
     p(h) dω_h / (h.n)`` with ``p`` the sampling pdf (physics.md sec. 2).
     """
+    literally(kind)
+    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     total = 0.0
@@ -71,7 +77,7 @@ def _specular_albedo(incident, kind, params, eta, mirror, masking, walter_fit, t
         u1 = 1.0 - (1.0 - t) * (1.0 - t)
         jacobian = 2.0 * (1.0 - t) * t_weights[a] / n_u2
         for b in range(n_u2):
-            hx, hy, hz = sample_normal(kind, u1, (b + 0.5) / n_u2, params)
+            hx, hy, hz = distributions.sample_normal(kind, u1, (b + 0.5) / n_u2, params)
             ih = ix * hx + iy * hy + iz * hz
             if ih <= 0.0 or hz <= 0.0:
                 continue
@@ -80,7 +86,7 @@ def _specular_albedo(incident, kind, params, eta, mirror, masking, walter_fit, t
                 continue
             lambda_o = 0.0 if masking == VCAVITY else smith_lambda(kind, ox, oy, oz, params, walter_fit)
             g = g2(masking, ix, iy, iz, ox, oy, oz, hx, hy, hz, lambda_i, lambda_o)
-            total += jacobian * facet_fresnel(ih, eta, mirror) * g * ih / (iz * hz)
+            total += jacobian * facets.reflectance(facet_kind, ih, facet_data) * g * ih / (iz * hz)
     return total
 
 
@@ -95,7 +101,7 @@ def specular_albedo(model: SingleBounceModel, incident, n_nodes: int = 256) -> f
         return 0.0
     t_nodes, t_weights = _t_rule(int(n_nodes))
     return float(_specular_albedo(np.ascontiguousarray(incident, dtype=np.float64), model.kind,
-                                  model.params, model.eta, model.mirror, model.masking_code,
+                                  model.params, model.facet_kind, model.facet_data, model.masking_code,
                                   model.lambda_fit, t_nodes, t_weights, 2 * int(n_nodes)))
 
 
@@ -131,12 +137,13 @@ def mean_cos_theta_m(model: SingleBounceModel, n_nodes: int = 512) -> float:
 
 @njit(cache=True)
 def _mean_cos(kind, params, t_nodes, t_weights, n_u2):
+    literally(kind)
     total = 0.0
     for a in range(t_nodes.shape[0]):
         t = t_nodes[a]
         u1 = 1.0 - (1.0 - t) * (1.0 - t)
         for b in range(n_u2):
-            mz = sample_normal(kind, u1, (b + 0.5) / n_u2, params)[2]
+            mz = distributions.sample_normal(kind, u1, (b + 0.5) / n_u2, params)[2]
             total += 2.0 * (1.0 - t) * t_weights[a] / n_u2 * mz
     return total
 
@@ -144,14 +151,17 @@ def _mean_cos(kind, params, t_nodes, t_weights, n_u2):
 def lambertian_normal_f1_albedo(model: SingleBounceModel) -> float:
     """Exact f1 albedo at ``θ_i = 0`` for Lambertian facets (``eta = 1``): ``kd E[cos θ_m]``.
 
+    Lambertian facets are facets without a specular part whose body factor is
+    ``K = kd / pi`` (the IL facet at ``eta = 1``), so ``kd = pi K``.
+
     Derivation in the module docstring (2D crossed-strings view factor per groove,
     physics.md sec. 9).
 
     Raises
     ------
     ValueError
-        If the facets are not Lambertian (``eta != 1`` or mirror).
+        If the facets are not Lambertian (a specular part, or no body).
     """
-    if model.mirror or model.eta != 1.0:
+    if model.has_specular or model.body_factor == 0.0:
         raise ValueError("the closed form holds for Lambertian facets (eta = 1) only")
-    return model.kd * mean_cos_theta_m(model)
+    return math.pi * model.body_factor * mean_cos_theta_m(model)

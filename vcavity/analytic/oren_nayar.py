@@ -86,8 +86,9 @@ class OrenNayarModel:
     Parameters
     ----------
     material : vcavity.config.Material
-        Must have ``distribution == "gaussian"``, ``facet == "interfaced_lambertian"``
-        and ``eta == 1`` (Lambertian facets); ``rho = kd``, ``sigma = material.sigma``.
+        Must have the ``gaussian`` distribution (``sigma``) and Lambertian facets: a facet
+        without a specular part whose body factor is ``K = rho / pi`` (the interfaced
+        Lambertian facet with ``eta = 1``, ``rho = kd``).
     interreflection : bool
         Full model (f1 + f2 estimate) or the single-scattering bracket.
 
@@ -99,15 +100,17 @@ class OrenNayarModel:
 
     def __init__(self, material: Material, interreflection: bool = True):
         from vcavity.analytic.single_bounce import ModelNotApplicable
+        from vcavity.facet import registry as facets
 
         if material.distribution != "gaussian":
             raise ModelNotApplicable(
                 f"oren-nayar needs the gaussian distribution, the table has {material.distribution!r}")
-        if material.facet != "interfaced_lambertian" or material.eta != 1.0:
+        body = facets.body_factor(material.facet, material.facet_params)
+        if facets.has_specular(material.facet, material.facet_params) or body == 0.0:
             raise ModelNotApplicable("oren-nayar needs Lambertian facets (interfaced_lambertian with eta = 1)")
         self.material = material
-        self.sigma = float(material.sigma)
-        self.rho = float(material.kd)
+        self.sigma = float(material.distribution_params["sigma"])
+        self.rho = math.pi * body
         self.interreflection = bool(interreflection)
 
     def brdf(self, incident, outgoing) -> np.ndarray:

@@ -53,12 +53,14 @@ class ModelNotApplicable(ValueError):
 
 
 @njit(cache=True, parallel=True)
-def specular_projected(incident, outgoing, kind, params, eta, mirror, masking, walter_fit):
+def specular_projected(incident, outgoing, kind, params, facet_kind, facet_data, masking, walter_fit):
     """``f_s(i, o) cos theta_o = F(i.h) D(h) G2(i, o, h) / (4 |i.n|)`` per row of ``outgoing``.
 
-    W eq. 20 / H eq. 29 with ``h = normalize(i + o)`` (physics.md sec. 7); 0 where
-    ``o.n <= 0`` or ``i.h <= 0``.
+    W eq. 20 / H eq. 29 with ``h = normalize(i + o)`` and ``F`` the facet's reflectance
+    (physics.md sec. 7); 0 where ``o.n <= 0`` or ``i.h <= 0``.
     """
+    literally(kind)
+    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     out = np.zeros(outgoing.shape[0])
@@ -70,17 +72,17 @@ def specular_projected(incident, outgoing, kind, params, eta, mirror, masking, w
         ih = ix * hx + iy * hy + iz * hz
         if norm <= 0.0 or ih <= 0.0 or hz <= 0.0:
             continue
-        d = distribution_D(kind, hx, hy, hz, params)
+        d = distributions.D(kind, hx, hy, hz, params)
         if d <= 0.0:
             continue
         lambda_o = 0.0 if masking == VCAVITY else smith_lambda(kind, ox, oy, oz, params, walter_fit)
         g = g2(masking, ix, iy, iz, ox, oy, oz, hx, hy, hz, lambda_i, lambda_o)
-        out[q] = facet_fresnel(ih, eta, mirror) * d * g / (4.0 * iz)
+        out[q] = facets.reflectance(facet_kind, ih, facet_data) * d * g / (4.0 * iz)
     return out
 
 
 @njit(cache=True)
-def body_nodes(incident, kind, params, eta, t_nodes, t_weights, n_u2):
+def body_nodes(incident, kind, params, facet_kind, facet_data, t_nodes, t_weights, n_u2):
     """Quadrature nodes of the body integral over ``m`` (IL eq. 12, physics.md sec. 9).
 
     Product rule in ``(t, u2)``: the given nodes in ``t`` (Gauss-Legendre on [0, 1]),
@@ -97,6 +99,8 @@ def body_nodes(incident, kind, params, eta, t_nodes, t_weights, n_u2):
     g1_i : ndarray (K,)
         ``G1_V(i, m)`` (H eq. 49) for the V-cavity masking.
     """
+    literally(kind)
+    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     n_t = t_nodes.shape[0]
     m = np.empty((n_t * n_u2, 3))
@@ -108,12 +112,12 @@ def body_nodes(incident, kind, params, eta, t_nodes, t_weights, n_u2):
         u1 = 1.0 - (1.0 - t) * (1.0 - t)
         jacobian = 2.0 * (1.0 - t) * t_weights[a] / n_u2
         for b in range(n_u2):
-            mx, my, mz = sample_normal(kind, u1, (b + 0.5) / n_u2, params)
+            mx, my, mz = distributions.sample_normal(kind, u1, (b + 0.5) / n_u2, params)
             im = ix * mx + iy * my + iz * mz
             if im <= 0.0 or mz <= 0.0 or iz <= 0.0:
                 continue
             m[count, 0], m[count, 1], m[count, 2] = mx, my, mz
-            weight[count] = jacobian * im * facet_transmittance(im, eta) / (iz * mz)
+            weight[count] = jacobian * im * facets.transmittance(facet_kind, im, facet_data) / (iz * mz)
             g = 2.0 * mz * iz / im
             g1_i[count] = g if g < 1.0 else 1.0
             count += 1
@@ -121,8 +125,8 @@ def body_nodes(incident, kind, params, eta, t_nodes, t_weights, n_u2):
 
 
 @njit(cache=True, parallel=True)
-def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, eta, t_table, masking,
-                       walter_fit):
+def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, facet_kind, facet_data, t_table,
+                       masking, walter_fit):
     """``Σ_k weight_k (o.m_k) T(o, m_k) G2(i, o, m_k)`` per row of ``outgoing``.
 
     Times the body constant ``kd/(π η² (1 - kd r_i))`` this is ``f_b(i, o) cos theta_o``
@@ -130,6 +134,8 @@ def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, eta, t
     (IL eq. 14), the Smith forms depend on ``o`` only through ``Lambda(o)``. ``T`` comes
     from ``t_table`` (:func:`~vcavity.analytic.terms.accurate_transmittance_table`).
     """
+    literally(kind)
+    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     out = np.zeros(outgoing.shape[0])
@@ -149,35 +155,17 @@ def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, eta, t
                 g = g1_i[k]
                 if g1_o < g:
                     g = g1_o
-                acc += weight[k] * om * table_transmittance(om, t_table, eta) * g
+                acc += weight[k] * om * table_transmittance(om, t_table, facet_kind, facet_data) * g
         else:
             for k in range(n_m):
                 om = ox * m[k, 0] + oy * m[k, 1] + oz * m[k, 2]
                 if om > 0.0:
-                    acc += weight[k] * om * table_transmittance(om, t_table, eta)
+                    acc += weight[k] * om * table_transmittance(om, t_table, facet_kind, facet_data)
             lambda_o = smith_lambda(kind, ox, oy, oz, params, walter_fit)
             # any m with i.m > 0 and o.m > 0 gives the Smith factor (chi+ already applied)
             acc *= g2(masking, ix, iy, iz, ox, oy, oz, 0.0, 0.0, 1.0, lambda_i, lambda_o)
         out[q] = acc
     return out
-
-
-def body_constant(kd: float, eta: float) -> float:
-    """``kd / (π η² (1 - kd r_i))`` of the IL body (IL eq. 8, physics.md sec. 4, 9)."""
-    return kd / (math.pi * eta * eta * ((1.0 - kd) + kd * float(one_minus_r_i(eta))))
-
-
-def lobe_width(material: Material) -> float:
-    """Angular roughness scale of the distribution (radians of ``theta_m``), for quadrature.
-
-    Beckmann/GGX: the smaller alpha; Phong: ``sqrt(2/(alpha_p + 2))`` (W sec. 5.2);
-    Gaussian: sigma.
-    """
-    if material.distribution in ("beckmann", "ggx"):
-        return float(min(material.alpha_x, material.alpha_y))
-    if material.distribution == "phong":
-        return math.sqrt(2.0 / (material.exponent + 2.0))
-    return float(material.sigma)
 
 
 class SingleBounceModel:
@@ -186,7 +174,8 @@ class SingleBounceModel:
     Parameters
     ----------
     material : vcavity.config.Material
-        Distribution, facet (``interfaced_lambertian`` or ``mirror``), kd, eta.
+        Its distribution and facet model (through the registries: the facet's
+        reflectance, transmittance and body factor, physics.md sec. 4).
     masking : {"vcavity", "smith", "smith-hc"}
         G2: V-cavity (IL eq. 14; equals the simulated f1), Smith separable (H eq. 98) or
         height-correlated (H eq. 99).
@@ -199,7 +188,8 @@ class SingleBounceModel:
     Raises
     ------
     ModelNotApplicable
-        Smith masking with the Gaussian distribution (its Smith Lambda is infinite).
+        Smith masking with a distribution whose Smith Lambda is infinite (``SMITH =
+        "infinite"``, e.g. the Gaussian).
     ValueError
         Unknown masking, ``lambda_fit`` without Beckmann, ``n_nodes < 1``.
     """
@@ -208,9 +198,9 @@ class SingleBounceModel:
                  n_nodes: int = DEFAULT_BODY_NODES):
         if masking not in MASKING_CODES:
             raise ValueError(f"masking = {masking!r}: accepted {', '.join(MASKING_CODES)}")
-        if masking != "vcavity" and material.distribution == "gaussian":
-            raise ModelNotApplicable(
-                f"model {masking!r} does not apply to a gaussian distribution (its Smith Lambda is infinite)")
+        if masking != "vcavity" and distributions.get(material.distribution).SMITH == "infinite":
+            raise ModelNotApplicable(f"model {masking!r} does not apply to a {material.distribution} "
+                                     "distribution (its Smith Lambda is infinite)")
         if lambda_fit and material.distribution != "beckmann":
             raise ValueError("lambda_fit (W eq. 27) exists for the beckmann distribution only")
         if int(n_nodes) < 1:
@@ -220,14 +210,13 @@ class SingleBounceModel:
         self.masking_code = MASKING_CODES[masking]
         self.lambda_fit = bool(lambda_fit)
         self.n_nodes = int(n_nodes)
-        self.kind, self.params = distribution_params(material)
-        self.mirror = material.facet == "mirror"
-        self.eta = 1.0 if self.mirror else float(material.eta)
-        self.kd = 0.0 if self.mirror else float(material.kd)
-        self.body_factor = body_constant(self.kd, self.eta) if self.kd > 0.0 else 0.0
-        self._t_table = accurate_transmittance_table(self.eta) if self.body_factor else None
-        self.has_specular = self.mirror or self.eta != 1.0
-        self.lobe_width = lobe_width(material)
+        self.kind, self.params = distributions.params_from(material.distribution, material.distribution_params)
+        self.facet_kind, _, self.facet_data = facets.prepare(material.facet, material.facet_params)
+        self.body_factor = facets.body_factor(material.facet, material.facet_params)
+        self.has_specular = facets.has_specular(material.facet, material.facet_params)
+        self._t_table = (accurate_transmittance_table(self.facet_kind, self.facet_data, self.has_specular)
+                         if self.body_factor else None)
+        self.lobe_width = distributions.lobe_width(material.distribution, material.distribution_params)
         self._nodes_cache: dict = {}
 
     def __repr__(self):
@@ -239,15 +228,15 @@ class SingleBounceModel:
         i, o = _as_direction(incident), _as_directions(outgoing)
         if not self.has_specular:
             return np.zeros(o.shape[0])
-        return specular_projected(i, o, self.kind, self.params, self.eta, self.mirror,
+        return specular_projected(i, o, self.kind, self.params, self.facet_kind, self.facet_data,
                                   self.masking_code, self.lambda_fit)
 
     def _nodes(self, incident):
         key = tuple(float(c) for c in incident)
         if key not in self._nodes_cache:
             self._nodes_cache.clear()  # one incident direction at a time
-            self._nodes_cache[key] = body_nodes(incident, self.kind, self.params, self.eta,
-                                                *_t_rule(self.n_nodes), 2 * self.n_nodes)
+            self._nodes_cache[key] = body_nodes(incident, self.kind, self.params, self.facet_kind,
+                                                self.facet_data, *_t_rule(self.n_nodes), 2 * self.n_nodes)
         return self._nodes_cache[key]
 
     def body_projected(self, incident, outgoing) -> np.ndarray:
@@ -256,8 +245,8 @@ class SingleBounceModel:
         if self.body_factor == 0.0:
             return np.zeros(o.shape[0])
         m, weight, g1_i = self._nodes(i)
-        total = body_projected_sum(i, o, m, weight, g1_i, self.kind, self.params, self.eta, self._t_table,
-                                   self.masking_code, self.lambda_fit)
+        total = body_projected_sum(i, o, m, weight, g1_i, self.kind, self.params, self.facet_kind,
+                                   self.facet_data, self._t_table, self.masking_code, self.lambda_fit)
         return self.body_factor * total
 
     def projected(self, incident, outgoing) -> np.ndarray:
@@ -298,14 +287,15 @@ def _divide_by_cos(projected, outgoing):
         return np.where(cos_o > 0.0, projected / np.where(cos_o > 0.0, cos_o, 1.0), 0.0)
 
 
-def flat_body_brdf(incident, outgoing, kd: float, eta: float) -> np.ndarray:
-    """Flat limit of the body term: ``kd T(i) T(o) / (π η² (1 - kd r_i))`` (physics.md sec. 7).
+def flat_body_brdf(incident, outgoing, material: Material) -> np.ndarray:
+    """Flat limit (alpha -> 0) of the body term, ``K T(i.n) T(o.n)`` (physics.md sec. 7).
 
-    Lambert ``kd/π`` when ``eta = 1``.
+    ``K`` is the facet's body factor: for the IL facet ``kd / (pi eta^2 (1 - kd r_i))``,
+    Lambert's ``kd / pi`` when ``eta = 1``.
     """
     i, o = _as_direction(incident), _as_directions(outgoing)
-    from vcavity.facet.fresnel import fresnel_transmittance_array
-
-    t_i = fresnel_transmittance_array(np.array([i[2]]), eta)[0]
-    t_o = fresnel_transmittance_array(o[:, 2], eta)
-    return np.where(o[:, 2] > 0.0, body_constant(kd, eta) * t_i * t_o, 0.0)
+    facet_kind, _, data = facets.prepare(material.facet, material.facet_params)
+    factor = facets.body_factor(material.facet, material.facet_params)
+    cosines = np.concatenate([[i[2]], o[:, 2]])
+    t = np.array([facets.transmittance(facet_kind, float(c), data) for c in cosines])
+    return np.where(o[:, 2] > 0.0, factor * t[0] * t[1:], 0.0)

@@ -25,10 +25,10 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity.analytic.single_bounce import ModelNotApplicable
-from vcavity.analytic.terms import d_many, smith_lambda_many
+from vcavity.analytic.terms import smith_lambda_rows
 from vcavity.config import Material
 from vcavity.facet.fresnel import fresnel_dielectric_array
-from vcavity.simulate import distribution_params
+from vcavity.microfacet import registry as distributions
 
 WALTER_MASKINGS = ("smith", "smith-hc", "vcavity")
 
@@ -39,7 +39,8 @@ class WalterDielectric:
     Parameters
     ----------
     material : vcavity.config.Material
-        Its distribution and ``eta`` (``kd`` and ``facet`` are ignored: a bare interface).
+        Its distribution and the facet's ``eta`` (1 when the facet has none; ``kd`` is
+        ignored: a bare interface).
     masking : {"smith", "smith-hc", "vcavity"}
     shadowing : bool
         False: ``G = G1(i, m)`` only (masking of the incident side).
@@ -49,21 +50,21 @@ class WalterDielectric:
     Raises
     ------
     ModelNotApplicable
-        Smith masking with the Gaussian distribution.
+        Smith masking with a distribution whose Smith Lambda is infinite (the Gaussian).
     """
 
     def __init__(self, material: Material, masking: str = "smith", shadowing: bool = True,
                  lambda_fit: bool = False):
         if masking not in WALTER_MASKINGS:
             raise ValueError(f"masking = {masking!r}: accepted {', '.join(WALTER_MASKINGS)}")
-        if masking != "vcavity" and material.distribution == "gaussian":
-            raise ModelNotApplicable("Smith masking does not apply to the gaussian distribution")
+        if masking != "vcavity" and distributions.get(material.distribution).SMITH == "infinite":
+            raise ModelNotApplicable(f"Smith masking does not apply to the {material.distribution} distribution")
         self.material = material
         self.masking = masking
         self.shadowing = bool(shadowing)
         self.lambda_fit = bool(lambda_fit)
-        self.eta = 1.0 if material.facet == "mirror" else float(material.eta)
-        self.kind, self.params = distribution_params(material)
+        self.eta = float(material.facet_params.get("eta", 1.0))
+        self.kind, self.params = distributions.params_from(material.distribution, material.distribution_params)
 
     def _g1(self, v, m):
         """Masking of direction(s) ``v`` (N, 3) for normals ``m`` (N, 3) (W eq. 23-25)."""
@@ -76,7 +77,7 @@ class WalterDielectric:
                 g = np.minimum(1.0, np.abs(2.0 * m[:, 2] * vn / vm))
             return np.where(side, g, 0.0), None
         mirrored = np.column_stack([v[:, 0], v[:, 1], np.abs(vn)])
-        lam = smith_lambda_many(self.kind, np.ascontiguousarray(mirrored), self.params, self.lambda_fit)
+        lam = smith_lambda_rows(self.kind, np.ascontiguousarray(mirrored), self.params, self.lambda_fit)
         return np.where(side, 1.0 / (1.0 + lam), 0.0), np.where(side, lam, np.inf)
 
     def _g(self, i, o, m):
@@ -106,7 +107,7 @@ class WalterDielectric:
         h = np.where(valid[:, None], h / np.where(norm > 0.0, norm, 1.0)[:, None], [0.0, 0.0, 1.0])
         ih = np.sum(i * h, axis=1)
         oh = np.sum(o * h, axis=1)
-        d = d_many(self.kind, np.ascontiguousarray(h), self.params)
+        d = distributions.evaluate("D", self.kind, h, self.params)
         fresnel = np.empty(ih.shape[0])
         for outside in (True, False):  # relative index eta_t/eta_i per side of i
             rows = (i[:, 2] > 0.0) == outside

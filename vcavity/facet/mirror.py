@@ -1,18 +1,55 @@
-"""Perfect mirror facet: every facet hit reflects specularly, ``F == 1`` (physics.md
-sec. 4, "Limits"; energy is conserved, physics.md sec. 8)."""
+"""Perfect mirror facet: every facet hit reflects specularly, ``F = 1`` (physics.md sec. 4,
+limits). Nothing is absorbed, so energy is conserved (physics.md sec. 8). It has no
+parameters and one compiled variant; its facet event draws no random number.
+
+Implements the facet interface of :mod:`vcavity.facet.registry`.
+"""
+
+import numpy as np
 
 from vcavity._jit import njit
+from vcavity.facet.common import SCATTERED, reflect
 
-MODEL = "mirror"
+NAME = "mirror"
+DESCRIPTION = "perfect mirror facets: every hit reflects specularly (F = 1), nothing is absorbed"
+PARAMETERS = ()
+VARIANTS = ("mirror",)
+
+
+def variant(values) -> int:
+    """The only variant."""
+    return 0
+
+
+def prepare(values) -> np.ndarray:
+    """No facet data."""
+    return np.zeros(0, dtype=np.float64)
+
+
+def has_specular(values) -> bool:
+    """A mirror is all specular lobe."""
+    return True
+
+
+def body_factor(values) -> float:
+    """No body: 0."""
+    return 0.0
 
 
 @njit(cache=True)
-def fresnel(cos_theta, *_):
-    """Reflectance of a perfect mirror: 1 for every cosine (extra arguments ignored)."""
+def reflectance(cos_theta, data):
+    """``F = 1`` for every cosine."""
     return 1.0
 
 
 @njit(cache=True)
-def albedo(*_):
-    """Directional albedo of a perfect mirror facet: 1 (arguments ignored)."""
-    return 1.0
+def transmittance(cos_theta, data):
+    """``T = 0``: nothing enters a mirror."""
+    return 0.0
+
+
+@njit(cache=True, inline="always")
+def event(variant, state, dx, dy, dz, cos_in, nx, nz, data):
+    """Reflect about ``(nx, 0, nz)``; see :func:`vcavity.facet.interfaced_lambertian.event`."""
+    dx, dz = reflect(dx, dz, cos_in, nx, nz)
+    return state, SCATTERED, dx, dy, dz

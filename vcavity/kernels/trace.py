@@ -1,11 +1,14 @@
 """The V-groove random walk (physics.md sec. 5), specialised per scene.
 
-``get_kernel(dist_kind, facet_mode)`` returns a jitted, parallel kernel closed over two
-integer constants, so each compiled variant contains only the code its scene needs:
-a mirror never draws for Fresnel, ``kd = 0`` never samples the body, ``eta = 1`` never
-evaluates Fresnel. Variants are compiled on first use and cached on disk
+``get_kernel(dist_kind, facet_kind, facet_variant)`` returns a jitted, parallel kernel
+closed over three integer constants: the distribution and the facet model (positions in
+their registries, :mod:`vcavity.microfacet.registry`, :mod:`vcavity.facet.registry`) and
+the facet's compiled variant. Each variant contains only the code its scene needs: the
+registries inline the distribution's trig-free groove sampler and the facet's event, so
+a mirror never draws for Fresnel, ``kd = 0`` never samples the body and ``eta = 1``
+never evaluates Fresnel. Variants are compiled on first use and cached on disk
 (``cache=True``; closures over plain ints are cacheable, closures over dispatchers are
-not, hence the integer switches below, which LLVM folds away).
+not, hence integer constants).
 
 The kernel is analog: every path has weight 1, so per-cell results are integer counts
 and merging per-thread histograms is exact in any order.
@@ -21,19 +24,12 @@ import numpy as np
 from numba import prange
 
 from vcavity._jit import njit
-
-from vcavity.facet.fresnel import fresnel_dielectric
-from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface
-from vcavity.kernels.sampling import groove_from_disk
-from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
 from vcavity.binning import direction_to_cell
-
-# facet modes: which facet events can happen (physics.md sec. 4, limits)
-MIRROR = 0  # F = 1: always reflect
-DIELECTRIC = 1  # kd = 0: reflect with probability F, else absorbed by the body
-LAMBERTIAN = 2  # eta = 1: F = 0, re-emit with probability kd, cosine-weighted
-INTERFACED_LAMBERTIAN = 3  # full IL facet
-FACET_MODE_NAMES = ("mirror", "specular dielectric", "lambertian", "interfaced lambertian")
+from vcavity.facet import registry as facets
+from vcavity.facet.common import ABSORBED as FACET_ABSORBED
+from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface
+from vcavity.microfacet import registry as distributions
+from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
 
 # per-slot statistics columns
 STAT_ABSORBED = 0
@@ -48,7 +44,7 @@ def _sample_groove(state, dist_kind, params):
     """Advance ``state``; return (state, tan theta_m, cos phi_m, sin phi_m).
 
     The groove normal has pdf D(m)(m.n) (physics.md sec. 2), sampled from a uniform
-    point of the unit disk (see kernels/sampling.py: no trig).
+    point of the unit disk by the distribution's trig-free ``sample_disk``.
     """
     while True:
         state, ua = next_uniform(state)
@@ -57,84 +53,8 @@ def _sample_groove(state, dist_kind, params):
         b = 2.0 * ub - 1.0
         s = a * a + b * b
         if 0.0 < s < 1.0:
-            tan_m, cos_phi, sin_phi = groove_from_disk(dist_kind, a, b, s, params)
+            tan_m, cos_phi, sin_phi = distributions.sample_disk(dist_kind, a, b, s, params)
             return state, tan_m, cos_phi, sin_phi
-
-
-#: Bins of the Fresnel bracketing table over cos in [0, 1].
-FRESNEL_BINS = 256
-
-
-def fresnel_brackets(eta: float) -> np.ndarray:
-    """Lower and upper bounds of F(cos, eta) on each of ``FRESNEL_BINS`` cosine bins.
-
-    Returns a ``(FRESNEL_BINS, 2)`` array. The kernel decides a Fresnel event
-    ``u < F(cos)`` from the bounds of the cosine's bin and evaluates the exact F
-    (physics.md sec. 4) only when ``u`` falls between them, so every decision is the
-    exact one while most evaluations are skipped.
-
-    F is monotone in the cosine except near its single minimum (the pseudo-Brewster
-    angle, which for large eta lies at small cosines). A bin gets the bounds of its
-    end points only when F is monotone in the same sense over the bin and both its
-    neighbours (checked on 32 interior points each); every other bin gets the
-    impossible bounds (-1, 2), which always fall through to the exact F.
-    """
-    from vcavity.facet.fresnel import fresnel_dielectric_array
-
-    n_fine = 32
-    c = np.linspace(0.0, 1.0, FRESNEL_BINS * n_fine + 1)
-    f = fresnel_dielectric_array(c, float(eta))
-    steps = np.diff(f).reshape(FRESNEL_BINS, n_fine)
-    sense = np.where(np.all(steps <= 0.0, axis=1), -1, np.where(np.all(steps >= 0.0, axis=1), 1, 0))
-    padded = np.concatenate([[sense[0]], sense, [sense[-1]]])
-    trusted = (sense != 0) & (padded[:-2] == sense) & (padded[2:] == sense)
-    ends = f[::n_fine]
-    brackets = np.empty((FRESNEL_BINS, 2))
-    brackets[:, 0] = np.minimum(ends[:-1], ends[1:])
-    brackets[:, 1] = np.maximum(ends[:-1], ends[1:])
-    brackets[~trusted] = (-1.0, 2.0)
-    return brackets
-
-
-@njit(cache=True, inline="always")
-def _below_fresnel(u, cos_in, eta, brackets):
-    """Exactly ``u < F(cos_in, eta)``, mostly decided from the bracketing table."""
-    j = int(cos_in * FRESNEL_BINS)
-    if j >= FRESNEL_BINS:
-        j = FRESNEL_BINS - 1
-    elif j < 0:
-        j = 0
-    if u < brackets[j, 0]:
-        return True
-    if u >= brackets[j, 1]:
-        return False
-    return u < fresnel_dielectric(cos_in, eta)
-
-
-@njit(cache=True, inline="always")
-def _emerge(state, facet_mode, eta, f_brackets, nx, nz):
-    """Direction leaving the IL body through a facet of normal (nx, 0, nz).
-
-    pdf proportional to T(w.m)(w.m) (physics.md sec. 4): a cosine-weighted direction
-    (uniform point (a, b) in the unit disk, mu = sqrt(1 - a^2 - b^2)), accepted with
-    probability T(mu) = 1 - F(mu) when the interface is a dielectric (eta > 1).
-    Tangents: t1 = (nz, 0, -nx), t2 = (0, 1, 0).
-    """
-    while True:
-        state, ua = next_uniform(state)
-        state, ub = next_uniform(state)
-        a = 2.0 * ua - 1.0
-        b = 2.0 * ub - 1.0
-        rho2 = a * a + b * b
-        if rho2 >= 1.0:
-            continue
-        mu = math.sqrt(1.0 - rho2)
-        if facet_mode == INTERFACED_LAMBERTIAN:
-            # accept with probability T(mu) = 1 - F(mu): reject when 1 - ut < F(mu)
-            state, ut = next_uniform(state)
-            if _below_fresnel(1.0 - ut, mu, eta, f_brackets):
-                continue
-        return state, a * nz + mu * nx, b, mu * nz - a * nx
 
 
 # outcome codes of one path
@@ -145,7 +65,7 @@ DEGENERATE = 3
 
 
 @njit(cache=True, inline="always")
-def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, f_brackets, emergence_prob,
+def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant, facet_data,
                 max_bounces, resolution):
     """Trace one path from the light into a sampled groove until it leaves or ends.
 
@@ -187,24 +107,10 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, f_bracket
             nx = -sin_t
             cos_in = -(dz - tan_m * dx) * cos_t
         nz = cos_t
-        if facet_mode == MIRROR:
-            reflect = True
-        elif facet_mode == LAMBERTIAN:
-            reflect = False
-        else:
-            state, u = next_uniform(state)
-            reflect = _below_fresnel(u, cos_in, eta, f_brackets)
-        if reflect:
-            dx += 2.0 * cos_in * nx
-            dz += 2.0 * cos_in * nz
-            continue
-        if facet_mode == DIELECTRIC:
+        state, fate, dx, dy, dz = facets.event(facet_kind, facet_variant, state, dx, dy, dz, cos_in,
+                                               nx, nz, facet_data)
+        if fate == FACET_ABSORBED:
             return state, ABSORBED, k, 0
-        # enters the body; re-emerges with probability a (== 1.0 exactly when kd == 1)
-        state, u = next_uniform(state)
-        if u >= emergence_prob:
-            return state, ABSORBED, k, 0
-        state, dx, dy, dz = _emerge(state, facet_mode, eta, f_brackets, nx, nz)
     # exit through the opening: back to the world frame and bin
     wx = dx * cos_phi - dy * sin_phi
     wy = dx * sin_phi + dy * cos_phi
@@ -212,7 +118,7 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_mode, eta, f_bracket
     return state, EXITED, k, direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
 
 
-_KERNELS: dict[tuple[int, int], object] = {}
+_KERNELS: dict[tuple[int, int, int], object] = {}
 
 
 def _source_tag() -> int:
@@ -228,7 +134,7 @@ def _source_tag() -> int:
     for sub in ("kernels", "facet", "microfacet"):
         for path in sorted((root / sub).glob("*.py")):
             digest.update(path.read_bytes())
-    for name in ("binning.py", "rng.py", "_jit.py"):
+    for name in ("binning.py", "rng.py", "_jit.py", "_dispatch.py"):
         digest.update((root / name).read_bytes())
     return int.from_bytes(digest.digest(), "little") >> 1
 
@@ -236,33 +142,34 @@ def _source_tag() -> int:
 _SOURCE_TAG = _source_tag()
 
 
-def get_kernel(dist_kind: int, facet_mode: int):
-    """The jitted walk for one distribution kind and facet mode (built once per process).
+def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
+    """The jitted walk for one distribution, facet model and facet variant (built once per process).
 
     The returned function has the signature::
 
-        kernel(incident, direction_key, first_block, n_blocks, n_paths, params, eta,
-               f_brackets, emergence_prob, max_bounces, max_order, resolution, n_slots)
+        kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+               max_bounces, max_order, resolution, n_slots)
             -> (counts[n_slots, max_order + 1, resolution**2] int64,
                 stats[n_slots, N_STATS] int64)
 
-    ``incident`` is the unit vector ``i`` (toward the light). Blocks
-    ``first_block .. first_block + n_blocks - 1`` of ``BLOCK_SIZE`` paths are traced,
-    the last block of the direction being short when ``n_paths`` is not a multiple of
-    ``BLOCK_SIZE``. Order slot 0 counts paths with more than ``max_order`` bounces.
-    Slot ``s`` traces blocks ``s, s + n_slots, ...``; results do not depend on
-    ``n_slots`` because blocks own their random streams and counts are integers.
+    ``incident`` is the unit vector ``i`` (toward the light); ``params`` the
+    distribution's parameter array and ``facet_data`` the facet's prepared data (see
+    the registries). Blocks ``first_block .. first_block + n_blocks - 1`` of
+    ``BLOCK_SIZE`` paths are traced, the last block of the direction being short when
+    ``n_paths`` is not a multiple of ``BLOCK_SIZE``. Order slot 0 counts paths with more
+    than ``max_order`` bounces. Slot ``s`` traces blocks ``s, s + n_slots, ...``; results
+    do not depend on ``n_slots`` because blocks own their random streams and counts are
+    integers.
     """
-    key = (int(dist_kind), int(facet_mode))
+    key = (int(dist_kind), int(facet_kind), int(facet_variant))
     if key in _KERNELS:
         return _KERNELS[key]
-    DIST = key[0]
-    FACET = key[1]
+    DIST, FACET, VARIANT = key
     SOURCE_TAG = _SOURCE_TAG
 
     @njit(cache=True, parallel=True)
-    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, eta,
-               f_brackets, emergence_prob, max_bounces, max_order, resolution, n_slots):
+    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+               max_bounces, max_order, resolution, n_slots):
         _ = SOURCE_TAG  # part of the cache key; see _source_tag
         n_cells = resolution * resolution
         counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
@@ -282,8 +189,8 @@ def get_kernel(dist_kind: int, facet_mode: int):
                 state = block_key(direction_key, block)
                 for _ in range(n_here):
                     state, outcome, k, cell = _trace_path(
-                        state, ix, iy, iz, params, DIST, FACET, eta, f_brackets, emergence_prob,
-                        max_bounces, resolution)
+                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces,
+                        resolution)
                     deepest = max(deepest, k)
                     if outcome == EXITED:
                         slot_counts[k if k <= max_order else 0, cell] += 1

@@ -15,31 +15,37 @@ import math
 import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle, stretched_slope
+from vcavity.parameters import Roughness
 from vcavity._jit import njit
 
 NAME = "beckmann"
-KIND = 0
-HAS_EXACT_SMITH = True
+DESCRIPTION = "Beckmann: Gaussian slopes, exp(-tan^2 theta_m / alpha^2) (W eq. 25, H eq. 82)"
+PARAMETERS = (Roughness(summary="Beckmann roughness, sqrt(2) x rms slope", example=0.6),)
+SMITH = "exact"
 
 _TWO_PI = 2.0 * math.pi
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 
-def make_params(alpha_x, alpha_y):
-    """Pack the parameters (no validation: the config layer validates).
+def params_from(values):
+    """Parameter array ``[alpha_x, alpha_y]`` from the canonical values (validated upstream).
 
     Parameters
     ----------
-    alpha_x, alpha_y : float
-        Roughness along x and y (> 0).
+    values : mapping
+        ``alpha_x``, ``alpha_y`` (> 0), as :class:`~vcavity.parameters.Roughness` returns them.
 
     Returns
     -------
     ndarray, shape (2,)
-        ``[alpha_x, alpha_y]``.
     """
-    return np.array([alpha_x, alpha_y], dtype=np.float64)
+    return np.array([values["alpha_x"], values["alpha_y"]], dtype=np.float64)
+
+
+def lobe_width(values):
+    """Angular roughness scale for quadratures: the smaller alpha (radians of theta_m)."""
+    return float(min(values["alpha_x"], values["alpha_y"]))
 
 
 @njit(cache=True)
@@ -90,6 +96,34 @@ def sample_normal(u1, u2, params):
     """
     t, c, s = sample(u1, u2, params)
     return normal_from_slope_angle(t, c, s)
+
+
+@njit(cache=True, inline="always")
+def sample_disk(a, b, s, params):
+    """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)``: the kernel's trig-free map.
+
+    For a point ``(a, b)`` uniform in the unit disk, ``s = a^2 + b^2`` is uniform and
+    independent of the direction ``(a, b)/sqrt(s)`` (Marsaglia's polar method), so this
+    samples ``D(m)(m.n)`` exactly as :func:`sample` does, without cos and sin.
+
+    Parameters
+    ----------
+    a, b : float
+        A point of the open unit disk other than the centre.
+    s : float
+        ``a*a + b*b`` in (0, 1).
+    params : ndarray
+        ``[alpha_x, alpha_y]``.
+
+    Returns
+    -------
+    tan_theta_m, cos_phi_m, sin_phi_m : float
+    """
+    # r^2 = -log(1 - u1) = -log s (physics.md sec. 2)
+    r_over_sqrt_s = math.sqrt(-math.log(s) / s)
+    # the slope is (alpha_x a, alpha_y b) r / sqrt(s); stretched_slope stays finite for
+    # alpha from 1e-300 to 1e300 (H sec. 5)
+    return stretched_slope(r_over_sqrt_s, a, b, params[0], params[1])
 
 
 @njit(cache=True)
@@ -224,40 +258,3 @@ def smith_lambda_walter_fit(vx, vy, vz, params):
     if a < 0.0 or a >= 1.6:
         return 0.0
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a)
-
-
-@njit(cache=True)
-def sample_normal_many(u1, u2, params):
-    """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
-    n = u1.shape[0]
-    out = np.empty((n, 3))
-    for k in range(n):
-        out[k, 0], out[k, 1], out[k, 2] = sample_normal(u1[k], u2[k], params)
-    return out
-
-
-@njit(cache=True)
-def D_many(m, params):
-    """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = D(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def pdf_many(m, params):
-    """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = pdf(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def smith_lambda_many(v, params):
-    """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(v.shape[0])
-    for k in range(v.shape[0]):
-        out[k] = smith_lambda(v[k, 0], v[k, 1], v[k, 2], params)
-    return out

@@ -144,49 +144,6 @@ def g2_smith_height_correlated(lambda_i, lambda_o):
     return 1.0 / (1.0 + lambda_i + lambda_o)
 
 
-@njit(cache=True)
-def g1_vcavity_many(v, m):
-    """Vectorised :func:`g1_vcavity` over rows (H eq. 49).
-
-    Parameters
-    ----------
-    v, m : ndarray, shape (N, 3)
-        Unit directions and unit microfacet normals, row by row.  To use one
-        direction for many normals pass ``np.broadcast_to(v, m.shape)``.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-        ``G1_V(v[k], m[k])``.
-    """
-    n = m.shape[0]
-    out = np.empty(n)
-    for k in range(n):
-        out[k] = g1_vcavity(v[k, 0], v[k, 1], v[k, 2], m[k, 0], m[k, 1], m[k, 2])
-    return out
-
-
-@njit(cache=True)
-def g2_vcavity_many(i, o, m):
-    """Vectorised :func:`g2_vcavity` over rows (IL eq. 14).
-
-    Parameters
-    ----------
-    i, o, m : ndarray, shape (N, 3)
-        Unit incident directions, outgoing directions and microfacet normals.
-
-    Returns
-    -------
-    ndarray, shape (N,)
-        ``G2_V(i[k], o[k], m[k])``.
-    """
-    n = m.shape[0]
-    out = np.empty(n)
-    for k in range(n):
-        out[k] = g2_vcavity(
-            i[k, 0], i[k, 1], i[k, 2], o[k, 0], o[k, 1], o[k, 2], m[k, 0], m[k, 1], m[k, 2]
-        )
-    return out
 
 
 @njit(cache=True)

@@ -8,7 +8,7 @@ marginal is ``p(theta) = 2 pi C exp(-theta^2/(2 sigma^2)) sin theta`` on
 ``sigma > 0`` samples correctly (below 1e-100 the table is the exact Rayleigh limit
 ``theta = sigma w``).
 
-``params`` layout (float64, built by :func:`make_params`, shape (5 + 2 (n+1),))::
+``params`` layout (float64, built by :func:`params_from`, shape (5 + 2 (n+1),))::
 
     [sigma, C, n, h, w_max, theta_0 .. theta_n, dtheta_0 .. dtheta_n]
 
@@ -27,7 +27,7 @@ Smith ``Lambda``: this distribution has infinite microsurface area
 (``D ~ 1/cos theta_m`` at the horizon), so ``int D max(0, v.m) dw`` and
 hence the Smith ``Lambda`` (H eq. 38-43) diverge logarithmically for every
 ``v != n``: :func:`smith_lambda` returns ``inf`` there (``G1_S = 0``) and
-``HAS_EXACT_SMITH = False``.  Use it with V-cavity masking (IL eq. 14), which
+``SMITH = "infinite"``.  Use it with V-cavity masking (IL eq. 14), which
 is well defined, as IL and Oren-Nayar do.
 """
 
@@ -36,11 +36,14 @@ import math
 import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.parameters import Number
 from vcavity._jit import njit
 
 NAME = "gaussian"
-KIND = 3
-HAS_EXACT_SMITH = False
+DESCRIPTION = "Oren-Nayar's Gaussian in theta_m, exp(-theta_m^2/(2 sigma^2))/cos theta_m (IL eq. 13)"
+PARAMETERS = (Number("sigma", "standard deviation of theta_m", lo=0.0, lo_open=True, units="rad",
+                     example=0.3),)
+SMITH = "infinite"  # D ~ 1/cos theta_m at the horizon: the Smith Lambda diverges
 
 N_TABLE = 1024
 W_MAX = math.sqrt(-2.0 * math.log(2.0**-54))  # > w(u1) for every float64 u1 < 1
@@ -124,13 +127,13 @@ def _build_table(sigma, n_table):
     return c_norm, theta, slope
 
 
-def make_params(sigma, n_table=N_TABLE):
+def params_from(values, n_table=N_TABLE):
     """Build the parameter array with the tabulated inverse CDF (plain Python).
 
     Parameters
     ----------
-    sigma : float
-        Width of the Gaussian in ``theta_m``, radians (about 1e-3 .. 2).
+    values : mapping
+        ``sigma``: width of the Gaussian in ``theta_m``, radians (> 0; about 1e-3 .. 2).
     n_table : int, optional
         Number of table intervals in ``w``.
 
@@ -139,9 +142,15 @@ def make_params(sigma, n_table=N_TABLE):
     ndarray
         ``[sigma, C, n, h, w_max, theta_0..theta_n, dtheta_0..dtheta_n]``.
     """
-    c_norm, theta, slope = _build_table(float(sigma), int(n_table))
-    header = [float(sigma), c_norm, float(n_table), W_MAX / n_table, W_MAX]
+    sigma = float(values["sigma"])
+    c_norm, theta, slope = _build_table(sigma, int(n_table))
+    header = [sigma, c_norm, float(n_table), W_MAX / n_table, W_MAX]
     return np.concatenate((header, theta, slope)).astype(np.float64)
+
+
+def lobe_width(values):
+    """Angular roughness scale: sigma (radians of theta_m)."""
+    return float(values["sigma"])
 
 
 @njit(cache=True)
@@ -153,7 +162,7 @@ def inverse_cdf_theta(u1, params):
     u1 : float
         Uniform in ``[0, 1)`` (``u1 >= 1`` is clamped to the largest float below 1).
     params : ndarray
-        Output of :func:`make_params`.
+        Output of :func:`params_from`.
 
     Returns
     -------
@@ -198,7 +207,7 @@ def sample(u1, u2, params):
     u1, u2 : float
         Uniforms in ``[0, 1)``.
     params : ndarray
-        Output of :func:`make_params`.
+        Output of :func:`params_from`.
 
     Returns
     -------
@@ -222,7 +231,7 @@ def sample_normal(u1, u2, params):
     u1, u2 : float
         Uniforms in ``[0, 1)``.
     params : ndarray
-        Output of :func:`make_params`.
+        Output of :func:`params_from`.
 
     Returns
     -------
@@ -231,6 +240,28 @@ def sample_normal(u1, u2, params):
     """
     t, c, s = sample(u1, u2, params)
     return normal_from_slope_angle(t, c, s)
+
+
+@njit(cache=True, inline="always")
+def sample_disk(a, b, s, params):
+    """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)`` (no trig for the
+    azimuth; see :func:`vcavity.microfacet.beckmann.sample_disk`); theta from the table.
+
+    Parameters
+    ----------
+    a, b : float
+        A point of the open unit disk other than the centre.
+    s : float
+        ``a*a + b*b`` in (0, 1).
+    params : ndarray
+        Output of :func:`params_from`.
+
+    Returns
+    -------
+    tan_theta_m, cos_phi_m, sin_phi_m : float
+    """
+    inv = 1.0 / math.sqrt(s)
+    return math.tan(inverse_cdf_theta(1.0 - s, params)), a * inv, b * inv
 
 
 @njit(cache=True)
@@ -242,7 +273,7 @@ def pdf(mx, my, mz, params):
     mx, my, mz : float
         Unit microfacet normal.
     params : ndarray
-        Output of :func:`make_params`.
+        Output of :func:`params_from`.
 
     Returns
     -------
@@ -268,7 +299,7 @@ def D(mx, my, mz, params):
     mx, my, mz : float
         Unit microfacet normal.
     params : ndarray
-        Output of :func:`make_params`.
+        Output of :func:`params_from`.
 
     Returns
     -------
@@ -293,7 +324,7 @@ def smith_lambda(vx, vy, vz, params):
     vx, vy, vz : float
         Unit direction.
     params : ndarray
-        Output of :func:`make_params` (unused).
+        Output of :func:`params_from` (unused).
 
     Returns
     -------
@@ -305,40 +336,3 @@ def smith_lambda(vx, vy, vz, params):
     if vz > 0.0 and vx * vx + vy * vy <= 0.0:
         return 0.0
     return math.inf
-
-
-@njit(cache=True)
-def sample_normal_many(u1, u2, params):
-    """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
-    n = u1.shape[0]
-    out = np.empty((n, 3))
-    for k in range(n):
-        out[k, 0], out[k, 1], out[k, 2] = sample_normal(u1[k], u2[k], params)
-    return out
-
-
-@njit(cache=True)
-def D_many(m, params):
-    """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = D(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def pdf_many(m, params):
-    """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = pdf(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def smith_lambda_many(v, params):
-    """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(v.shape[0])
-    for k in range(v.shape[0]):
-        out[k] = smith_lambda(v[k, 0], v[k, 1], v[k, 2], params)
-    return out

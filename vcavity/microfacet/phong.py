@@ -7,7 +7,7 @@
 - Sampling: ``cos theta_m = (1 - u1)^(1/(alpha_p + 2))``, ``phi_m = 2 pi u2``
   (W eq. 31-32 with ``u1 -> 1 - u1``, the same distribution, so that ``u1 = 0``
   gives the normal and ``u1 -> 1`` stays finite).
-- Smith ``Lambda``: APPROXIMATE (``HAS_EXACT_SMITH = False``).  The Smith
+- Smith ``Lambda``: APPROXIMATE (``SMITH = "approximate"``).  The Smith
   integral has no closed form for Phong; following W sec. 5.2 we use the
   Beckmann Lambda (H eq. 69) with ``a = sqrt(0.5 alpha_p + 1)/tan theta_v``.
   Measured against a numerical quadrature of the exact Smith Lambda, the
@@ -22,30 +22,37 @@ import numpy as np
 
 from vcavity.microfacet.beckmann import smith_lambda_of_a
 from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.parameters import Number
 from vcavity._jit import njit
 
 NAME = "phong"
-KIND = 2
-HAS_EXACT_SMITH = False
+DESCRIPTION = "Phong: D proportional to cos^exponent theta_m, isotropic (W eq. 30)"
+PARAMETERS = (Number("exponent", "Phong exponent alpha_p; like Beckmann alpha = sqrt(2/(alpha_p + 2))",
+                     lo=0.0, example=20.0),)
+SMITH = "approximate"  # Walter's Beckmann-based form, W sec. 5.2 (see the module docstring)
 
 _TWO_PI = 2.0 * math.pi
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 
-def make_params(exponent):
-    """Pack the parameters (no validation: the config layer validates).
+def params_from(values):
+    """Parameter array ``[exponent]`` from the canonical values (validated upstream).
 
     Parameters
     ----------
-    exponent : float
-        Phong exponent ``alpha_p >= 0``.
+    values : mapping
+        ``exponent`` (Walter's ``alpha_p >= 0``).
 
     Returns
     -------
     ndarray, shape (1,)
-        ``[exponent]``.
     """
-    return np.array([exponent], dtype=np.float64)
+    return np.array([values["exponent"]], dtype=np.float64)
+
+
+def lobe_width(values):
+    """Angular roughness scale: the similar Beckmann alpha, ``sqrt(2/(alpha_p + 2))`` (W sec. 5.2)."""
+    return math.sqrt(2.0 / (values["exponent"] + 2.0))
 
 
 @njit(cache=True)
@@ -96,6 +103,30 @@ def sample_normal(u1, u2, params):
     """
     t, c, s = sample(u1, u2, params)
     return normal_from_slope_angle(t, c, s)
+
+
+@njit(cache=True, inline="always")
+def sample_disk(a, b, s, params):
+    """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)`` (no trig; see
+    :func:`vcavity.microfacet.beckmann.sample_disk`): ``cos^2 theta_m = s^(2/(alpha_p + 2))``
+    (W eq. 31).
+
+    Parameters
+    ----------
+    a, b : float
+        A point of the open unit disk other than the centre.
+    s : float
+        ``a*a + b*b`` in (0, 1).
+    params : ndarray
+        ``[exponent]``.
+
+    Returns
+    -------
+    tan_theta_m, cos_phi_m, sin_phi_m : float
+    """
+    inv = 1.0 / math.sqrt(s)
+    tan2 = math.expm1(-2.0 * math.log(s) / (params[0] + 2.0))
+    return math.sqrt(tan2), a * inv, b * inv
 
 
 @njit(cache=True)
@@ -170,40 +201,3 @@ def smith_lambda(vx, vy, vz, params):
         return 0.0
     a = math.sqrt(0.5 * params[0] + 1.0) * vz / sin_theta
     return smith_lambda_of_a(a)
-
-
-@njit(cache=True)
-def sample_normal_many(u1, u2, params):
-    """Vectorised :func:`sample_normal`: arrays of uniforms to an ``(N, 3)`` array."""
-    n = u1.shape[0]
-    out = np.empty((n, 3))
-    for k in range(n):
-        out[k, 0], out[k, 1], out[k, 2] = sample_normal(u1[k], u2[k], params)
-    return out
-
-
-@njit(cache=True)
-def D_many(m, params):
-    """Vectorised :func:`D` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = D(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def pdf_many(m, params):
-    """Vectorised :func:`pdf` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(m.shape[0])
-    for k in range(m.shape[0]):
-        out[k] = pdf(m[k, 0], m[k, 1], m[k, 2], params)
-    return out
-
-
-@njit(cache=True)
-def smith_lambda_many(v, params):
-    """Vectorised :func:`smith_lambda` over the rows of an ``(N, 3)`` array."""
-    out = np.empty(v.shape[0])
-    for k in range(v.shape[0]):
-        out[k] = smith_lambda(v[k, 0], v[k, 1], v[k, 2], params)
-    return out

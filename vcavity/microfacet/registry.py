@@ -1,0 +1,214 @@
+"""The one place distributions of microfacet normals are registered and dispatched.
+
+Adding a distribution is a new module in ``vcavity/microfacet/`` with the interface below
+plus one line in :data:`DISTRIBUTION_MODULES`; nothing else in the package changes. The
+kernel, the analytic models, config validation, reports and ``--help`` all reach the
+distributions through this module.
+
+Interface of a distribution module
+----------------------------------
+``NAME`` (str), ``DESCRIPTION`` (one line for reports and ``--help``),
+``PARAMETERS`` (tuple of :mod:`vcavity.parameters` specs: config keys, ranges, defaults),
+``SMITH`` (``"exact"``, ``"approximate"``, or ``"infinite"`` when the Smith Lambda
+diverges and only V-cavity masking applies), and
+
+- ``params_from(values) -> ndarray``: the float64 parameter array from the canonical
+  values (plain Python, may precompute tables);
+- ``lobe_width(values) -> float``: angular roughness scale in radians of ``theta_m``,
+  which quadratures use to resolve the specular lobe;
+- jitted scalars, all with pdf ``D(m)(m.n)`` for the samplers (physics.md sec. 2):
+  ``sample(u1, u2, params) -> (tan_theta_m, cos_phi_m, sin_phi_m)``;
+  ``sample_disk(a, b, s, params)``, the same map with ``u1 = 1 - s`` and azimuth
+  ``(a, b)/sqrt(s)`` for a uniform disk point (the kernel's trig-free sampler);
+  ``sample_normal(u1, u2, params) -> (mx, my, mz)``;
+  ``D(mx, my, mz, params)``, ``pdf(mx, my, mz, params)``;
+  ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
+  not exact).
+
+Dispatch
+--------
+``kind`` is a distribution's position in :data:`DISTRIBUTION_MODULES`. In jitted code
+the operations below take ``kind`` as a compile-time constant (a closure integer, as
+the kernel factory uses, or ``numba.literally(kind)``) and resolve to the module's own
+function with no branch. From Python they call the module directly.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any, Mapping
+
+import numpy as np
+from numba import literally
+
+from vcavity._dispatch import dispatcher
+from vcavity._jit import njit
+from vcavity.parameters import ParameterError, accepted_keys, canonical_keys, parse_parameters
+
+#: Registered distributions, by module name under ``vcavity.microfacet``: one line each.
+DISTRIBUTION_MODULES = (
+    "beckmann",
+    "ggx",
+    "phong",
+    "gaussian",
+)
+
+MODULES = tuple(importlib.import_module(f"vcavity.microfacet.{name}") for name in DISTRIBUTION_MODULES)
+_BY_NAME = {module.NAME: module for module in MODULES}
+NAMES = tuple(_BY_NAME)
+
+_INTERFACE = ("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample",
+              "sample_disk", "sample_normal", "D", "pdf", "smith_lambda")
+for _module in MODULES:
+    _missing = [attr for attr in _INTERFACE if not hasattr(_module, attr)]
+    if _missing:
+        raise ImportError(f"distribution module {_module.__name__} lacks {', '.join(_missing)}")
+    if _module.SMITH not in ("exact", "approximate", "infinite"):
+        raise ImportError(f"{_module.__name__}.SMITH = {_module.SMITH!r}: exact, approximate or infinite")
+
+
+def get(name: str):
+    """The distribution module called ``name``.
+
+    Raises
+    ------
+    KeyError
+        For an unknown name; the message lists the registered ones.
+    """
+    if name not in _BY_NAME:
+        raise KeyError(f"unknown microfacet distribution {name!r}; registered: {', '.join(NAMES)}")
+    return _BY_NAME[name]
+
+
+def kind_of(name: str) -> int:
+    """Dispatch index of the distribution ``name`` (see module docstring)."""
+    return MODULES.index(get(name))
+
+
+def parse(name: str, raw: Mapping[str, Any], table: str = "material") -> dict[str, float]:
+    """Validated canonical parameter values of distribution ``name`` from a user table.
+
+    Only the distribution's own keys are read; the caller rejects unknown keys.
+
+    Raises
+    ------
+    vcavity.parameters.ParameterError
+        One line naming the field, the value and what is accepted.
+    """
+    module = get(name)
+    return parse_parameters(module.PARAMETERS, raw, table, f"distribution {name!r}")
+
+
+def config_keys(name: str) -> tuple[str, ...]:
+    """Config keys the distribution ``name`` accepts."""
+    return accepted_keys(get(name).PARAMETERS)
+
+
+def value_keys(name: str) -> tuple[str, ...]:
+    """Keys of the canonical values of ``name`` (what tables store in ``/material``)."""
+    return canonical_keys(get(name).PARAMETERS)
+
+
+def is_isotropic(name: str, values: Mapping[str, float]) -> bool:
+    """True when the distribution is invariant under rotation about the macro normal."""
+    return all(spec.is_isotropic(values) for spec in get(name).PARAMETERS)
+
+
+def params_from(name: str, values: Mapping[str, float]) -> tuple[int, np.ndarray]:
+    """``(kind, params)``: dispatch index and contiguous float64 parameter array."""
+    module = get(name)
+    params = np.ascontiguousarray(module.params_from(values), dtype=np.float64)
+    return MODULES.index(module), params
+
+
+def lobe_width(name: str, values: Mapping[str, float]) -> float:
+    """Angular roughness scale (radians of theta_m) for quadrature resolution."""
+    return float(get(name).lobe_width(values))
+
+
+def help_lines() -> list[str]:
+    """``--help`` text: one block per distribution (description and parameters)."""
+    lines = []
+    for module in MODULES:
+        lines.append(f"{module.NAME}: {module.DESCRIPTION}")
+        lines.extend(f"    {spec.help()}" for spec in module.PARAMETERS)
+    return lines
+
+
+# ------------------------------------------------------------------ jitted dispatch
+
+
+_OWNER = "vcavity.microfacet.registry"
+sample = dispatcher(MODULES, "sample", ("u1", "u2", "params"), _OWNER)
+sample_normal = dispatcher(MODULES, "sample_normal", ("u1", "u2", "params"), _OWNER)
+sample_disk = dispatcher(MODULES, "sample_disk", ("a", "b", "s", "params"), _OWNER)
+D = dispatcher(MODULES, "D", ("mx", "my", "mz", "params"), _OWNER)
+pdf = dispatcher(MODULES, "pdf", ("mx", "my", "mz", "params"), _OWNER)
+smith_lambda = dispatcher(MODULES, "smith_lambda", ("vx", "vy", "vz", "params"), _OWNER)
+
+
+# ------------------------------------------------------------------ vectorised path
+
+_ROW_OPS = {"D": 0, "pdf": 1, "smith_lambda": 2}
+
+
+@njit(cache=True)
+def _rows(kind, op, v, params):
+    """``op(kind, v[k, 0], v[k, 1], v[k, 2], params)`` per row; ``op`` 0 D, 1 pdf, 2 Lambda."""
+    literally(kind)
+    literally(op)
+    out = np.empty(v.shape[0])
+    for k in range(v.shape[0]):
+        if op == 0:
+            out[k] = D(kind, v[k, 0], v[k, 1], v[k, 2], params)
+        elif op == 1:
+            out[k] = pdf(kind, v[k, 0], v[k, 1], v[k, 2], params)
+        else:
+            out[k] = smith_lambda(kind, v[k, 0], v[k, 1], v[k, 2], params)
+    return out
+
+
+@njit(cache=True)
+def _sample_rows(kind, u1, u2, params):
+    literally(kind)
+    out = np.empty((u1.shape[0], 3))
+    for k in range(u1.shape[0]):
+        out[k, 0], out[k, 1], out[k, 2] = sample_normal(kind, u1[k], u2[k], params)
+    return out
+
+
+def evaluate(op: str, kind: int, vectors, params) -> np.ndarray:
+    """``op`` (``"D"``, ``"pdf"`` or ``"smith_lambda"``) over the rows of an ``(N, 3)`` array.
+
+    Parameters
+    ----------
+    op : str
+        Which operation.
+    kind : int
+        Dispatch index (:func:`kind_of`).
+    vectors : array_like, shape (N, 3)
+        Unit normals (D, pdf) or directions (smith_lambda).
+    params : ndarray
+        The distribution's parameter array (:func:`params_from`).
+
+    Returns
+    -------
+    ndarray, shape (N,)
+    """
+    if op not in _ROW_OPS:
+        raise ValueError(f"op = {op!r}: accepted {', '.join(_ROW_OPS)}")
+    v = np.ascontiguousarray(np.asarray(vectors, dtype=np.float64).reshape(-1, 3))
+    return _rows(int(kind), _ROW_OPS[op], v, np.ascontiguousarray(params, dtype=np.float64))
+
+
+def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
+    """Normals ``(N, 3)`` from arrays of uniforms through the distribution's ``sample_normal``."""
+    u1 = np.ascontiguousarray(u1, dtype=np.float64).ravel()
+    u2 = np.ascontiguousarray(u2, dtype=np.float64).ravel()
+    return _sample_rows(int(kind), u1, u2, np.ascontiguousarray(params, dtype=np.float64))
+
+
+__all__ = ["DISTRIBUTION_MODULES", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
+           "config_keys", "value_keys", "is_isotropic", "params_from", "lobe_width", "help_lines",
+           "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "evaluate",
+           "sample_normals"]
