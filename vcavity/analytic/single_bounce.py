@@ -24,26 +24,21 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
+from numba import literally, prange
 
 from vcavity._jit import njit
-
 from vcavity.analytic.terms import (
     MASKING_CODES,
     VCAVITY,
-    distribution_D,
-    facet_fresnel,
-    facet_transmittance,
+    accurate_transmittance_table,
     g2,
     normalize,
-    sample_normal,
     smith_lambda,
     table_transmittance,
-    accurate_transmittance_table,
 )
 from vcavity.config import Material
-from vcavity.facet.fresnel import one_minus_r_i
-from vcavity.simulate import distribution_params
+from vcavity.facet import registry as facets
+from vcavity.microfacet import registry as distributions
 
 DEFAULT_BODY_NODES = 64
 
