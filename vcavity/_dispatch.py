@@ -1,10 +1,19 @@
 """Compile-time dispatch over a registry of modules (used by the two registries).
 
 ``dispatcher(modules, op, argnames)`` returns a Python function ``op(kind, *argnames)``
-that calls ``modules[kind].op``. In jitted code it is a Numba overload that needs
-``kind`` as a compile-time constant (an integer literal: a closure int, or
-``numba.literally(kind)``) and inlines ``modules[kind].op`` itself: no branch, no
-function pointer, and callers stay cacheable (nothing here lands in their closures).
+that calls ``modules[kind].op``. In jitted code it is a Numba overload:
+
+- for a compile-time constant ``kind`` (an integer literal: a closure int, as the kernel
+  factory uses, or ``numba.literally(kind)``) it inlines ``modules[kind].op`` itself: no
+  branch, no function pointer; this is how the kernel specialises;
+- for a run-time integer ``kind`` it inlines a chain ``if kind == 0: ... elif ...`` over
+  every registered module, so one compiled function serves all kinds (the analytic
+  models use this: one compile instead of one per kind). The chain has no branch for an
+  out-of-range kind (a ``raise`` would keep Numba from parallelising the callers'
+  ``prange`` loops); kinds come only from the registry's ``kind_of``/``params_from``, and
+  the registries' Python entry points check the range (:func:`check_kind`).
+
+Callers stay cacheable: nothing here lands in their closures.
 
 Numba matches an overload's typing function, implementation and the overloaded Python
 function by their argument names, so the three small wrappers are generated with
@@ -18,6 +27,17 @@ import keyword
 from numba import types
 from numba.core import errors
 from numba.extending import overload
+
+
+def check_kind(modules: tuple, kind, owner: str) -> int:
+    """``kind`` as an int, or ``ValueError`` when it is not a position in ``modules``."""
+    if isinstance(kind, bool) or not isinstance(kind, (int,)) and not hasattr(kind, "__index__"):
+        raise ValueError(f"{owner}: kind = {kind!r}: must be an integer in [0, {len(modules)})")
+    value = int(kind)
+    if not 0 <= value < len(modules):
+        raise ValueError(f"{owner}: kind = {kind!r}: must be in [0, {len(modules)}) (registered: "
+                         f"{', '.join(m.NAME for m in modules)})")
+    return value
 
 
 def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
@@ -45,12 +65,19 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
     args = ", ".join(argnames)
 
     def resolve(kind):
-        if not isinstance(kind, types.IntegerLiteral):
-            raise errors.TypingError(
-                f"{owner}.{op}: the kind must be a compile-time constant (a closure int, or "
-                f"numba.literally(kind)); got {kind}")
-        scope = {"implementation": getattr(modules[kind.literal_value], op)}
-        exec(f"def call(kind, {args}):\n    return implementation({args})\n", scope)
+        if isinstance(kind, types.IntegerLiteral):
+            scope = {"implementation": getattr(modules[kind.literal_value], op)}
+            exec(f"def call(kind, {args}):\n    return implementation({args})\n", scope)
+            return scope["call"]
+        if not isinstance(kind, types.Integer):
+            raise errors.TypingError(f"{owner}.{op}: the kind must be an integer; got {kind}")
+        scope = {f"implementation_{k}": getattr(module, op) for k, module in enumerate(modules)}
+        body = [f"def call(kind, {args}):"]
+        for k in range(len(modules) - 1):
+            body.append(f"    {'if' if k == 0 else 'elif'} kind == {k}:")
+            body.append(f"        return implementation_{k}({args})")
+        body.append(f"    return implementation_{len(modules) - 1}({args})")
+        exec("\n".join(body) + "\n", scope)
         return scope["call"]
 
     scope = {"modules": modules, "resolve": resolve}

@@ -47,9 +47,10 @@ from vcavity.parameters import ParameterError
 
 DEFAULT_PATHS = 10_000_000
 DEFAULT_MAX_ORDER = 3
-# GGX tails make deep grooves common: the truncated share falls like cap^-2 (physics.md
-# sec. 9: 1.6 % at alpha = 3 with a cap of 100), so 10^4 leaves ~1e-5 there while the
-# mean work per path hardly changes (the tail's expected bounce count converges).
+# GGX tails make deep grooves common: the truncated share falls like cap^-2 with mirror
+# facets and about like cap^-1.2 with diffuse ones (physics.md sec. 9: GGX alpha = 3,
+# kd = 1: 1.6 % at a cap of 100, 5e-5 at 10^4), while the mean work per path hardly
+# changes (the tail's expected bounce count converges).
 DEFAULT_MAX_BOUNCES = 10_000
 DEFAULT_SENSOR_RESOLUTION = 57
 MAX_SENSOR_RESOLUTION = 2048

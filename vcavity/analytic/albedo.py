@@ -19,7 +19,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import literally
 
 from vcavity._jit import njit
 
@@ -67,8 +66,6 @@ def _specular_albedo(incident, kind, params, facet_kind, facet_data, masking, wa
     W eq. 14 Jacobian: ``f_s cos θ_o dω_o = F D G2 (i.h) / (i.n) dω_h``; ``D dω_h =
     p(h) dω_h / (h.n)`` with ``p`` the sampling pdf (physics.md sec. 2).
     """
-    literally(kind)
-    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     total = 0.0
@@ -137,7 +134,6 @@ def mean_cos_theta_m(model: SingleBounceModel, n_nodes: int = 512) -> float:
 
 @njit(cache=True)
 def _mean_cos(kind, params, t_nodes, t_weights, n_u2):
-    literally(kind)
     total = 0.0
     for a in range(t_nodes.shape[0]):
         t = t_nodes[a]

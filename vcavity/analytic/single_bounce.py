@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import literally, prange
+from numba import prange
 
 from vcavity._jit import njit
 from vcavity.analytic.terms import (
@@ -54,8 +54,6 @@ def specular_projected(incident, outgoing, kind, params, facet_kind, facet_data,
     W eq. 20 / H eq. 29 with ``h = normalize(i + o)`` and ``F`` the facet's reflectance
     (physics.md sec. 7); 0 where ``o.n <= 0`` or ``i.h <= 0``.
     """
-    literally(kind)
-    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     out = np.zeros(outgoing.shape[0])
@@ -94,8 +92,6 @@ def body_nodes(incident, kind, params, facet_kind, facet_data, t_nodes, t_weight
     g1_i : ndarray (K,)
         ``G1_V(i, m)`` (H eq. 49) for the V-cavity masking.
     """
-    literally(kind)
-    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     n_t = t_nodes.shape[0]
     m = np.empty((n_t * n_u2, 3))
@@ -129,8 +125,6 @@ def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, facet_
     (IL eq. 14), the Smith forms depend on ``o`` only through ``Lambda(o)``. ``T`` comes
     from ``t_table`` (:func:`~vcavity.analytic.terms.accurate_transmittance_table`).
     """
-    literally(kind)
-    literally(facet_kind)
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     out = np.zeros(outgoing.shape[0])

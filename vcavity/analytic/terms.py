@@ -3,8 +3,8 @@ table (physics.md sec. 2-4).
 
 D, the samplers and Smith Lambda of a distribution come from
 :mod:`vcavity.microfacet.registry`, reflectance and transmittance of a facet model from
-:mod:`vcavity.facet.registry`; their ``kind`` arguments are compile-time constants (the
-jitted model functions take them through ``numba.literally``). All directions point away
+:mod:`vcavity.facet.registry` (a run-time ``kind`` dispatches over the registered
+modules, so one compiled model function serves every material). All directions point away
 from the surface (physics.md sec. 1) and are passed as three floats.
 """
 
@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import literally
 
 from vcavity._jit import njit
 from vcavity.facet import registry as facets
@@ -43,7 +42,6 @@ def smith_lambda(kind, vx, vy, vz, params, walter_fit):
 @njit(cache=True)
 def smith_lambda_rows(kind, v, params, walter_fit):
     """:func:`smith_lambda` over the rows of an ``(N, 3)`` array of directions."""
-    literally(kind)
     out = np.empty(v.shape[0])
     for k in range(v.shape[0]):
         out[k] = smith_lambda(kind, v[k, 0], v[k, 1], v[k, 2], params, walter_fit)
@@ -74,7 +72,6 @@ TRANSMITTANCE_TABLE_SIZE = 4096
 @njit(cache=True)
 def _transmittance_rows(facet_kind, cosines, facet_data):
     """The facet's transmittance at each cosine (1-D array)."""
-    literally(facet_kind)
     out = np.empty(cosines.shape[0])
     for k in range(cosines.shape[0]):
         out[k] = facets.transmittance(facet_kind, cosines[k], facet_data)

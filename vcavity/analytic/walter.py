@@ -17,7 +17,7 @@ side: ``eta_i``/``eta_o`` are the indices of the media that ``i``/``o`` are in.
 product (W eq. 23, the paper's choice) by default, with the sidedness
 ``chi+((v.m)/(v.n))`` of W eq. 23-25; ``"smith-hc"`` (H eq. 99) and ``"vcavity"``
 (H eq. 49 with ``|v.n|``) are options; ``shadowing=False`` keeps the masking of ``i``
-only (for the furnace identity ``∫ (f_r + f_t) |o.n| dω_o = 1``, H eq. 14/37).
+only (for the furnace identity ``∫ (f_r + f_t) |o.n| dω_o = 1``, H eq. 33, 36).
 """
 
 from __future__ import annotations

@@ -28,9 +28,10 @@ diverges and only V-cavity masking applies), and
 Dispatch
 --------
 ``kind`` is a distribution's position in :data:`DISTRIBUTION_MODULES`. In jitted code
-the operations below take ``kind`` as a compile-time constant (a closure integer, as
-the kernel factory uses, or ``numba.literally(kind)``) and resolve to the module's own
-function with no branch. From Python they call the module directly.
+the operations below resolve a compile-time constant ``kind`` (a closure integer, as
+the kernel factory uses) to the module's own function with no branch, and a run-time
+``kind`` to a branch over the registered modules (see :mod:`vcavity._dispatch`). From
+Python they call the module directly.
 """
 
 from __future__ import annotations
@@ -39,9 +40,8 @@ import importlib
 from typing import Any, Mapping
 
 import numpy as np
-from numba import literally
 
-from vcavity._dispatch import dispatcher
+from vcavity._dispatch import check_kind, dispatcher
 from vcavity._jit import njit
 from vcavity.parameters import ParameterError, accepted_keys, canonical_keys, parse_parameters
 
@@ -155,8 +155,6 @@ _ROW_OPS = {"D": 0, "pdf": 1, "smith_lambda": 2}
 @njit(cache=True)
 def _rows(kind, op, v, params):
     """``op(kind, v[k, 0], v[k, 1], v[k, 2], params)`` per row; ``op`` 0 D, 1 pdf, 2 Lambda."""
-    literally(kind)
-    literally(op)
     out = np.empty(v.shape[0])
     for k in range(v.shape[0]):
         if op == 0:
@@ -170,7 +168,6 @@ def _rows(kind, op, v, params):
 
 @njit(cache=True)
 def _sample_rows(kind, u1, u2, params):
-    literally(kind)
     out = np.empty((u1.shape[0], 3))
     for k in range(u1.shape[0]):
         out[k, 0], out[k, 1], out[k, 2] = sample_normal(kind, u1[k], u2[k], params)
@@ -198,14 +195,16 @@ def evaluate(op: str, kind: int, vectors, params) -> np.ndarray:
     if op not in _ROW_OPS:
         raise ValueError(f"op = {op!r}: accepted {', '.join(_ROW_OPS)}")
     v = np.ascontiguousarray(np.asarray(vectors, dtype=np.float64).reshape(-1, 3))
-    return _rows(int(kind), _ROW_OPS[op], v, np.ascontiguousarray(params, dtype=np.float64))
+    kind = check_kind(MODULES, kind, "vcavity.microfacet.registry.evaluate")
+    return _rows(kind, _ROW_OPS[op], v, np.ascontiguousarray(params, dtype=np.float64))
 
 
 def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
     """Normals ``(N, 3)`` from arrays of uniforms through the distribution's ``sample_normal``."""
     u1 = np.ascontiguousarray(u1, dtype=np.float64).ravel()
     u2 = np.ascontiguousarray(u2, dtype=np.float64).ravel()
-    return _sample_rows(int(kind), u1, u2, np.ascontiguousarray(params, dtype=np.float64))
+    kind = check_kind(MODULES, kind, "vcavity.microfacet.registry.sample_normals")
+    return _sample_rows(kind, u1, u2, np.ascontiguousarray(params, dtype=np.float64))
 
 
 __all__ = ["DISTRIBUTION_MODULES", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
