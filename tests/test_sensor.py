@@ -5,12 +5,15 @@ NumPy references here use the textbook forms (cos(pi/2 - a), arctan2 on the disk
 so that the two implementations share no code.
 """
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 from scipy import stats
 
 from vcavity.binning import direction_to_cell, hemisphere_to_square, square_to_hemisphere
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor import EqualAreaSensor, square_to_hemisphere_array
 
 RESOLUTIONS = [1, 2, 57, 100]
 
@@ -113,6 +116,23 @@ def test_hemisphere_to_square_matches_arctan2_reference():
     np.testing.assert_allclose(square, np.stack([ref_u, ref_v], axis=1), rtol=0, atol=1e-12)
     back = np.array([square_to_hemisphere(u, v) for u, v in square])
     np.testing.assert_allclose(back, directions, rtol=0, atol=1e-12)
+
+
+def test_numpy_map_agrees_with_the_kernel_map():
+    """square_to_hemisphere_array (NumPy) against the jitted map the kernel inlines."""
+    rng = np.random.default_rng(4)
+    uv = rng.uniform(-1.0, 1.0, (50000, 2))
+    edges = np.linspace(-1.0, 1.0, 41)  # ties |u| == |v|, axes, signed zeros, corners
+    special = [(0.0, 0.0), (-0.0, 0.0), (0.0, -0.0), (-0.0, -0.0), (1e-300, 0.0), (0.0, -1e-300)]
+    special += [(a, b) for a in edges for b in (a, -a, 0.0, -0.0, 1.0, -1.0)]
+    uv = np.concatenate([uv, np.array(special)])
+    mapped = square_to_hemisphere_array(uv[:, 0], uv[:, 1])
+    kernel = np.array([square_to_hemisphere(u, v) for u, v in uv])
+    assert mapped.shape == (uv.shape[0], 3)
+    np.testing.assert_allclose(mapped, kernel, rtol=0, atol=1e-15)
+    np.testing.assert_array_equal(square_to_hemisphere_array(0.0, -0.0), [0.0, 0.0, 1.0])
+    grid = square_to_hemisphere_array(uv[:6, 0].reshape(2, 3), uv[:6, 1].reshape(2, 3))
+    np.testing.assert_array_equal(grid, mapped[:6].reshape(2, 3, 3))  # broadcasting shapes
 
 
 # ----------------------------------------------------------------------- binning
@@ -256,86 +276,6 @@ def test_projected_solid_angle_against_brute_force_midpoint(resolution):
         assert -1e-12 < relative_error < 2.5 / n_sub**2
 
 
-# ------------------------------------------------------------ sub-cell quadrature
-def crosses_diagonal(cells, resolution):
-    """True where |u| = |v| passes through the cell interior (integrand has a kink)."""
-    u_lower, u_upper, v_lower, v_upper = cell_bounds(cells, resolution)
-    min_abs_u = np.where(u_lower * u_upper < 0, 0.0, np.minimum(abs(u_lower), abs(u_upper)))
-    min_abs_v = np.where(v_lower * v_upper < 0, 0.0, np.minimum(abs(v_lower), abs(v_upper)))
-    max_abs_u = np.maximum(abs(u_lower), abs(u_upper))
-    max_abs_v = np.maximum(abs(v_lower), abs(v_upper))
-    return ~((min_abs_u >= max_abs_v) | (min_abs_v >= max_abs_u))
-
-
-@pytest.mark.parametrize("resolution", RESOLUTIONS)
-def test_subcell_quadrature(resolution):
-    sensor = EqualAreaSensor(resolution)
-    exact = sensor.cell_projected_solid_angle
-    kinked = crosses_diagonal(np.arange(sensor.n_cells), resolution)
-    errors = {}
-    for n_sub in (1, 2, 8, 16):
-        directions, weights = sensor.subcell_quadrature(n_sub)
-        assert directions.shape == (sensor.n_cells, n_sub * n_sub, 3)
-        assert weights.shape == (sensor.n_cells, n_sub * n_sub) and np.all(weights > 0)
-        np.testing.assert_allclose(weights.sum(axis=1), sensor.cell_solid_angle, rtol=1e-13)
-        np.testing.assert_allclose(np.linalg.norm(directions, axis=2), 1.0, atol=1e-14)
-        own_cell = sensor.cell_index(directions)
-        np.testing.assert_array_equal(own_cell, np.broadcast_to(np.arange(sensor.n_cells)[:, None], own_cell.shape))
-        relative_error = np.abs(np.sum(directions[..., 2] * weights, axis=1) - exact) / exact
-        errors[n_sub] = relative_error
-        if n_sub >= 2:
-            # Off the diagonals cos theta is 1 - u^2 or 1 - v^2, a quadratic, which
-            # n_sub >= 2 Gauss-Legendre points integrate exactly.
-            assert np.all(relative_error[~kinked] < 1e-12)
-        if n_sub >= 8:
-            # Across |u| = |v| the gradient jumps; subcell_quadrature splits those cells
-            # along both diagonals (n_sub >= 4), where cos theta is quadratic on each
-            # triangle and integrated exactly (a plain tensor rule: ~0.8/n_sub^2).
-            assert np.all(relative_error[kinked] < 1e-12)
-    assert errors[16].max() < 1e-12
-
-
-@pytest.mark.parametrize("resolution", [1, 2, 5, 8, 57])
-@pytest.mark.parametrize("n_sub", [4, 5, 6, 7, 12])
-def test_subcell_quadrature_crossed_cells_exact(resolution, n_sub):
-    # Cells crossed by |u| = |v| (four-triangle Duffy rule) integrate cos theta to
-    # round-off, for even and odd n_sub; weights stay >= 0 and nodes in their own cell.
-    sensor = EqualAreaSensor(resolution)
-    cells = np.flatnonzero(crosses_diagonal(np.arange(sensor.n_cells), resolution))
-    directions, weights = sensor.subcell_quadrature(n_sub, cells=cells)
-    exact = sensor.cell_projected_solid_angle[cells]
-    np.testing.assert_allclose(np.sum(directions[..., 2] * weights, axis=1), exact, rtol=1e-10)
-    np.testing.assert_allclose(weights.sum(axis=1), sensor.cell_solid_angle[cells], rtol=1e-13)
-    ix, iy = cells % resolution, cells // resolution
-    split = (ix == iy) | (ix + iy == resolution - 1)  # others only touch |u| = |v| at a corner
-    assert np.all(weights >= 0) and np.count_nonzero(weights == 0) == (n_sub % 2) * np.count_nonzero(split)
-    own_cell = sensor.cell_index(directions)
-    assert np.all(own_cell == cells[:, None])
-    if resolution == 57 and n_sub >= 8:
-        # a smooth non-polynomial integrand converges fast too (reference: 64 x 64 rule;
-        # measured 4e-8 at n_sub = 8, 9e-11 at 12)
-        fine_dirs, fine_weights = sensor.subcell_quadrature(64, cells=cells)
-        def smooth(d):
-            return np.exp(2.0 * d[..., 0] - d[..., 1]) * d[..., 2]
-        reference = np.sum(smooth(fine_dirs) * fine_weights, axis=1)
-        np.testing.assert_allclose(np.sum(smooth(directions) * weights, axis=1), reference, rtol=1e-7)
-
-
-def test_subcell_quadrature_cell_subset_and_validation():
-    sensor = EqualAreaSensor(57)
-    subset = np.array([3248, 0, 1624, 7])
-    directions, weights = sensor.subcell_quadrature(4, cells=subset)
-    all_directions, all_weights = sensor.subcell_quadrature(4)
-    np.testing.assert_array_equal(directions, all_directions[subset])
-    np.testing.assert_array_equal(weights, all_weights[subset])
-    for bad_cells in ([-1], [3249], [0.5]):
-        with pytest.raises(ValueError):
-            sensor.subcell_quadrature(4, cells=np.array(bad_cells))
-    for bad_n_sub in (0, 2.0):
-        with pytest.raises(ValueError):
-            sensor.subcell_quadrature(bad_n_sub)
-
-
 # ------------------------------------------------------------------- class API
 def test_sensor_construction_equality_and_repr():
     sensor = EqualAreaSensor()
@@ -357,3 +297,76 @@ def test_cell_index_shapes():
     assert sensor.cell_index(batch).shape == (2, 5)
     with pytest.raises(ValueError):
         sensor.cell_index(np.zeros((4, 2)))
+
+
+def reference_centre_angles(resolution):
+    """theta and phi of each cell centre from the concentric map in closed form.
+
+    ``cos theta = 1 - r^2`` with ``r = max(|u|, |v|)``, so ``theta = 2 arcsin(r / sqrt 2)``;
+    the lift keeps the disk azimuth, which is linear in ``v/u`` (or ``u/v``) on each wedge.
+    """
+    ix, iy = np.meshgrid(np.arange(resolution), np.arange(resolution))  # [iy, ix]
+    u = (-1.0 + (2.0 * ix.ravel() + 1.0) / resolution)
+    v = (-1.0 + (2.0 * iy.ravel() + 1.0) / resolution)
+    theta = 2.0 * np.arcsin(np.maximum(np.abs(u), np.abs(v)) / np.sqrt(2.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        phi = np.select(
+            [np.abs(u) >= np.abs(v), v > 0.0],
+            [(np.pi / 4) * (v / u) + np.where(u < 0.0, np.pi, 0.0), np.pi / 2 - (np.pi / 4) * (u / v)],
+            -np.pi / 2 - (np.pi / 4) * (u / v),
+        )
+    return theta, np.nan_to_num(phi)
+
+
+@pytest.mark.parametrize("resolution", [1, 2, 3, 8, 57, 100])
+def test_cell_theta_and_phi(resolution):
+    sensor = EqualAreaSensor(resolution)
+    theta, phi = sensor.cell_theta, sensor.cell_phi
+    assert theta.shape == phi.shape == (sensor.n_cells,) and not theta.flags.writeable
+    ref_theta, ref_phi = reference_centre_angles(resolution)
+    np.testing.assert_allclose(theta, ref_theta, rtol=0, atol=1e-14)
+    wrapped = np.angle(np.exp(1j * (phi - ref_phi)))  # phi - ref_phi modulo 2 pi
+    np.testing.assert_allclose(wrapped, 0.0, rtol=0, atol=1e-14)
+    assert np.all((phi > -np.pi) & (phi <= np.pi))
+    assert np.all((theta >= 0.0) & (theta <= 0.5 * np.pi))
+    # the angles describe cell_center: (sin t cos p, sin t sin p, cos t)
+    rebuilt = np.stack([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)], axis=1)
+    np.testing.assert_allclose(rebuilt, sensor.cell_center, rtol=0, atol=1e-15)
+    if resolution % 2:
+        middle = resolution // 2
+        pole = middle * resolution + middle
+        assert theta[pole] == 0.0 and phi[pole] == 0.0
+        minus_x = middle * resolution + np.arange(middle)  # centres on the -x axis
+        assert np.all(phi[minus_x] == np.pi)
+        assert np.all(phi[middle * resolution + middle + 1 + np.arange(middle)] == 0.0)  # +x axis
+        assert np.all(phi[np.arange(middle) * resolution + middle] == -0.5 * np.pi)  # -y axis
+
+
+def test_cell_bounds_and_validation():
+    sensor = EqualAreaSensor(3)
+    u_lower, u_upper, v_lower, v_upper = sensor.cell_bounds(np.array([0, 5, 7]))
+    np.testing.assert_allclose(u_lower, [-1.0, 1.0 / 3.0, -1.0 / 3.0], atol=1e-15)
+    np.testing.assert_allclose(u_upper, [-1.0 / 3.0, 1.0, 1.0 / 3.0], atol=1e-15)
+    np.testing.assert_allclose(v_lower, [-1.0, -1.0 / 3.0, 1.0 / 3.0], atol=1e-15)
+    np.testing.assert_allclose(v_upper, [-1.0 / 3.0, 1.0 / 3.0, 1.0], atol=1e-15)
+    assert all(b.shape == (9,) for b in sensor.cell_bounds())
+    for bad in ([-1], [9], [0.5], [[0, 1]]):
+        with pytest.raises(ValueError):
+            sensor.cell_bounds(np.array(bad))
+
+
+def test_sensor_geometry_imports_no_numba():
+    """Describing cells (what reading a table needs) never imports Numba; binning does."""
+    code = (
+        "import sys\n"
+        "from vcavity.sensor import EqualAreaSensor\n"
+        "s = EqualAreaSensor(7)\n"
+        "s.cell_center, s.cell_theta, s.cell_phi, s.cell_bounds()\n"
+        "s.cell_solid_angle, s.cell_projected_solid_angle\n"
+        "print('numba' in sys.modules)\n"
+        "s.cell_index([0.0, 0.0, 1.0])\n"
+        "print('numba' in sys.modules)\n"
+    )
+    result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.split() == ["False", "True"]

@@ -3,7 +3,8 @@
 Public entry points
 -------------------
 open_table(path)
-    Read a BRDF table written by ``vcavity run`` (HDF5 format v1).
+    Read a BRDF table written by ``vcavity run`` (HDF5 format v2, or v1); imports no
+    Numba and compiles nothing.
 """
 
 from importlib.metadata import PackageNotFoundError, version as _version

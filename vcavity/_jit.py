@@ -8,8 +8,9 @@ unwritable home). This module decides once, at import, where the cache goes:
 
 1. wherever Numba itself would put it: ``NUMBA_CACHE_DIR`` when set, else the
    ``__pycache__`` folders beside the sources, else Numba's per-user cache directory;
-2. if none of those is writable, a private per-user folder in the system temporary
-   directory (``<tmp>/vcavity-numba-cache-<uid>``, mode 0700, used only when it is ours);
+2. if none of those is writable, a private per-user folder in the temporary directory
+   (``<tmp>/vcavity-numba-cache-<uid>``, mode 0700, used only when it is ours; ``<tmp>``
+   is ``TMPDIR`` when set, else the system's);
 3. if even that fails, no caching: kernels are compiled in every process, and a one-line
    note says so on stderr.
 
@@ -39,12 +40,30 @@ def _cache_locatable() -> bool:
     return True
 
 
+def _temporary_directory() -> str:
+    """The temporary directory the user chose (``TMPDIR``, ``TEMP`` or ``TMP``), else the system's.
+
+    ``tempfile.gettempdir()`` silently replaces a chosen directory it cannot write with
+    ``/tmp`` (or even the working directory); compiled code is not put somewhere the user
+    did not choose, so a chosen directory is used as it is.
+    """
+    for name in ("TMPDIR", "TEMP", "TMP"):
+        if os.environ.get(name):
+            return os.environ[name]
+    return tempfile.gettempdir()
+
+
 def _private_temporary_cache() -> str | None:
     """``<tmp>/vcavity-numba-cache-<uid>``, created 0700; None if not usable or not ours."""
     uid = os.getuid() if hasattr(os, "getuid") else 0
-    path = os.path.join(tempfile.gettempdir(), f"vcavity-numba-cache-{uid}")
+    path = os.path.join(_temporary_directory(), f"vcavity-numba-cache-{uid}")
     try:
-        os.makedirs(path, mode=0o700, exist_ok=True)
+        os.mkdir(path, 0o700)  # only the leaf: never create a missing temporary directory
+    except FileExistsError:
+        pass
+    except OSError:
+        return None
+    try:
         info = os.lstat(path)
     except OSError:
         return None

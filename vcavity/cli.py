@@ -73,6 +73,24 @@ def _nonnegative_int(text: str) -> int:
     return _positive_int(text)
 
 
+class _Parser(argparse.ArgumentParser):
+    """ArgumentParser whose epilog may be a function, called only when help is shown.
+
+    ``vcavity run --help`` lists every registered distribution and facet model; building
+    that text imports the registries (and Numba), which ``vcavity info`` must not need.
+    """
+
+    def __init__(self, *args, epilog_factory=None, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._epilog_factory = epilog_factory
+
+    def format_help(self):
+        if self._epilog_factory is not None:
+            self.epilog = self._epilog_factory()
+            self._epilog_factory = None
+        return super().format_help()
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The ``vcavity`` argument parser (exposed for documentation and tests)."""
     parser = argparse.ArgumentParser(
@@ -83,7 +101,7 @@ def build_parser() -> argparse.ArgumentParser:
     from vcavity import __version__
 
     parser.add_argument("--version", action="version", version=f"vcavity {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
 
     run = sub.add_parser(
@@ -91,7 +109,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="simulate a run config and write an HDF5 table",
         description="Simulate light paths in V-cavities for each incident direction of a run "
         "config and write the BRDF table per bounce order to HDF5.",
-        epilog=run_epilog(),
+        epilog_factory=run_epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     run.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run config (default: built-in figure 7 run)")
@@ -194,7 +212,7 @@ def _cmd_run(args) -> int:
     except KeyboardInterrupt:
         print("vcavity: interrupted; no table written", file=sys.stderr)
         return EXIT_INTERRUPTED
-    cfg = dataclasses.replace(cfg, output=out)  # the table records where it was written
+    cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
     write_table(
         out,
         theta_i=result.theta_i, phi_i=result.phi_i, order=result.order, counts=result.counts,

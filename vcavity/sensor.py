@@ -1,4 +1,4 @@
-"""Equal-solid-angle sensor over the upper hemisphere (physics.md section 6).
+"""Equal-solid-angle sensor over the upper hemisphere (physics.md section 6), in NumPy.
 
 The hemisphere is partitioned into ``N x N`` cells: the square ``[-1, 1]^2`` is cut
 into ``N x N`` equal squares, mapped to the unit disk by the Shirley-Chiu concentric
@@ -11,14 +11,53 @@ radius).  Both steps preserve area up to a constant, ``dω = (π/2) du dv``
 Cell ``c = iy * N + ix`` covers ``u ∈ [-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and
 ``v ∈ [-1 + 2 iy/N, -1 + 2 (iy+1)/N]``.
 
-The jitted scalar functions (:func:`square_to_hemisphere`,
-:func:`hemisphere_to_square`, :func:`direction_to_cell`) are meant to be called from
-the simulation kernels; :class:`EqualAreaSensor` bins with exactly the same code.
+This module describes the cells (bounds, centres and their angles, solid angles,
+exact projected solid angles) in plain NumPy and imports no Numba, so reading a table
+needs no JIT compilation. Only :meth:`EqualAreaSensor.cell_index` bins, and it does so
+with the simulation kernel's own jitted code (:mod:`vcavity.binning`, imported when
+first called), so a direction lands in exactly the cell the kernel counted it in.
 """
 
 from functools import cached_property
 
 import numpy as np
+
+_QUARTER_PI = 0.25 * np.pi
+
+
+def square_to_hemisphere_array(u, v):
+    """Concentric map of square points to upper-hemisphere unit directions, vectorised.
+
+    The NumPy counterpart of :func:`vcavity.binning.square_to_hemisphere` (same
+    branches, same formulas; results agree to rounding, about 1e-16): the
+    Shirley-Chiu concentric map to the disk followed by the lift ``z = 1 - r^2``,
+    ``(x, y) = (d_x, d_y) sqrt(2 - r^2)`` (physics.md section 6).
+
+    Parameters
+    ----------
+    u, v : array_like
+        Square coordinates in ``[-1, 1]``; broadcast against each other.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        Unit directions with ``z >= 0``; ``(0, 0, 1)`` where ``u = v = 0``.
+    """
+    u, v = np.broadcast_arrays(np.asarray(u, dtype=np.float64), np.asarray(v, dtype=np.float64))
+    v_major = np.abs(v) > np.abs(u)  # ties |u| == |v| take the u-branch, as the kernel does
+    radius = np.where(v_major, v, u)  # signed disk radius, max(|u|, |v|) in magnitude
+    pole = radius == 0.0  # only at u == v == 0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(v_major, u / v, v / u)
+    angle = _QUARTER_PI * np.where(pole, 0.0, ratio)  # (π/2 - φ) on the ±y wedges
+    cos_angle, sin_angle = np.cos(angle), np.sin(angle)
+    disk_x = radius * np.where(v_major, sin_angle, cos_angle)
+    disk_y = radius * np.where(v_major, cos_angle, sin_angle)
+    radius_sq = radius * radius
+    lift = np.sqrt(2.0 - radius_sq)
+    directions = np.stack([disk_x * lift, disk_y * lift, 1.0 - radius_sq], axis=-1)
+    directions[pole] = (0.0, 0.0, 1.0)
+    return directions
 
 
 def _integral_one_minus_v_sq(lower, upper):
@@ -114,9 +153,26 @@ class EqualAreaSensor:
     def __hash__(self):
         return hash((self.partition, self.resolution))
 
-    def _cell_bounds(self, cells):
-        """Square-coordinate bounds ``(u_lower, u_upper, v_lower, v_upper)`` of cells."""
-        cells = np.asarray(cells, dtype=np.int64)
+    def cell_bounds(self, cells=None):
+        """Square-coordinate bounds of cells.
+
+        Parameters
+        ----------
+        cells : array_like of int, optional
+            1-D array of cell indices in ``[0, n_cells)``; default all cells.
+
+        Returns
+        -------
+        u_lower, u_upper, v_lower, v_upper : numpy.ndarray
+            Each of the shape of ``cells``: cell ``c`` is the square
+            ``[u_lower, u_upper] x [v_lower, v_upper]``.
+
+        Raises
+        ------
+        ValueError
+            If ``cells`` is not a 1-D integer array of valid indices.
+        """
+        cells = self._check_cells(cells)
         width = 2.0 / self.resolution
         ix = cells % self.resolution
         iy = cells // self.resolution
@@ -135,6 +191,9 @@ class EqualAreaSensor:
     def cell_index(self, directions):
         """Cell index of each direction, binned exactly as the simulation kernel does.
 
+        Runs the kernel's jitted binning (:func:`vcavity.binning.directions_to_cells`;
+        compiled, or loaded from Numba's cache, on first use).
+
         Parameters
         ----------
         directions : array_like, shape (..., 3)
@@ -149,19 +208,44 @@ class EqualAreaSensor:
         if directions.ndim < 1 or directions.shape[-1] != 3:
             raise ValueError(f"directions must have shape (..., 3), got {directions.shape}")
         flat = np.ascontiguousarray(directions.reshape(-1, 3))
-        from vcavity.binning import directions_to_cells
+        from vcavity.binning import directions_to_cells  # the kernel's code: imports Numba
 
         return directions_to_cells(flat, self.resolution).reshape(directions.shape[:-1])
 
     @cached_property
     def cell_center(self):
-        """``(n_cells, 3)`` directions: the centre of each square cell, mapped."""
-        u_lower, u_upper, v_lower, v_upper = self._cell_bounds(np.arange(self.n_cells))
-        from vcavity.binning import squares_to_hemisphere
+        """``(n_cells, 3)`` unit directions: the centre of each square cell, mapped.
 
-        centers = squares_to_hemisphere(0.5 * (u_lower + u_upper), 0.5 * (v_lower + v_upper))
+        The square centre ``(2 ix + 1 - N) / N`` has one rounding, so centres are exactly
+        symmetric and, for odd ``N``, the middle cell's centre is exactly the pole.
+        """
+        cells = np.arange(self.n_cells)
+        centre_u = (2 * (cells % self.resolution) + 1 - self.resolution) / self.resolution
+        centre_v = (2 * (cells // self.resolution) + 1 - self.resolution) / self.resolution
+        centers = square_to_hemisphere_array(centre_u, centre_v)
         centers.flags.writeable = False
         return centers
+
+    @cached_property
+    def cell_theta(self):
+        """``(n_cells,)`` polar angle of each cell centre from ``+z``, rad, in ``[0, π/2]``."""
+        x, y, z = self.cell_center.T
+        theta = np.arctan2(np.hypot(x, y), z)  # accurate at the pole and at the horizon
+        theta.flags.writeable = False
+        return theta
+
+    @cached_property
+    def cell_phi(self):
+        """``(n_cells,)`` azimuth of each cell centre from ``+x`` toward ``+y``, rad.
+
+        In ``(-π, π]`` (``arctan2``; a centre on the ``-x`` axis has ``π``, never ``-π``);
+        0 for the cell centred on the pole.
+        """
+        x, y, _ = self.cell_center.T
+        phi = np.arctan2(y + 0.0, x)  # + 0.0 turns y = -0.0 into +0.0: -x axis -> +π
+        phi[(x == 0.0) & (y == 0.0)] = 0.0
+        phi.flags.writeable = False
+        return phi
 
     @cached_property
     def cell_solid_angle(self):
@@ -177,107 +261,6 @@ class EqualAreaSensor:
         ``Ω⊥_c = (π/2) ∫∫_cell (1 - max(u^2, v^2)) du dv`` (physics.md section 9),
         integrated exactly (piecewise polynomial).  Sums to ``π``.
         """
-        bounds = self._cell_bounds(np.arange(self.n_cells))
-        projected = 0.5 * np.pi * _projected_integral_over_rectangles(*bounds)
+        projected = 0.5 * np.pi * _projected_integral_over_rectangles(*self.cell_bounds())
         projected.flags.writeable = False
         return projected
-
-    def subcell_quadrature(self, n_sub, cells=None):
-        """Gauss-Legendre quadrature over sensor cells in solid angle.
-
-        Tensor-product ``n_sub x n_sub`` Gauss-Legendre nodes in ``(u, v)`` on each
-        cell, mapped to the hemisphere; weights include ``dω = (π/2) du dv``
-        (physics.md section 9), so they sum to the cell's solid angle.  Use it to
-        average a model over a cell the way the sensor does (physics.md section 6).
-
-        The concentric map has a kink along the diagonals ``|u| = |v|``; on the
-        uniform grid these are the diagonals of the cells with ``ix == iy`` or
-        ``ix + iy == N - 1``.  For ``n_sub >= 2`` such cells are split along both of
-        their diagonals into four triangles, each integrated with a collapsed
-        (Duffy) Gauss-Legendre rule, so the kink lies on piece boundaries and these
-        cells converge as fast as the others (``cos θ`` is integrated exactly) when
-        ``n_sub >= 4``.  With even ``n_sub`` each triangle has ``(n_sub/2)^2`` nodes;
-        with odd ``n_sub >= 5`` each has ``(n_sub-1)/2 x (n_sub+1)/2`` nodes and the
-        remaining node sits at the cell centre with weight 0.
-
-        Parameters
-        ----------
-        n_sub : int
-            Nodes per cell along each of ``u`` and ``v`` (>= 1).
-        cells : array_like of int, optional
-            Cell indices to build the quadrature for; default all cells.
-
-        Returns
-        -------
-        directions : numpy.ndarray, shape (C, n_sub * n_sub, 3)
-            Quadrature directions per cell.
-        solid_angle_weights : numpy.ndarray, shape (C, n_sub * n_sub)
-            Weights in sr; each row sums to ``2π/N^2``.
-        """
-        if isinstance(n_sub, (bool, np.bool_)) or not isinstance(n_sub, (int, np.integer)):
-            raise ValueError(f"n_sub must be an int >= 1, got {n_sub!r}")
-        if n_sub < 1:
-            raise ValueError(f"n_sub must be an int >= 1, got {n_sub!r}")
-        n_sub = int(n_sub)
-        cells = self._check_cells(cells)
-        nodes, weights = np.polynomial.legendre.leggauss(n_sub)
-        u_lower, u_upper, v_lower, v_upper = self._cell_bounds(cells)
-        half_width = 1.0 / self.resolution  # half of the cell side 2/N
-        u_nodes = 0.5 * (u_lower + u_upper)[:, None] + half_width * nodes[None, :]
-        v_nodes = 0.5 * (v_lower + v_upper)[:, None] + half_width * nodes[None, :]
-        # node k = j * n_sub + i  <->  (u_i, v_j)
-        u_grid = np.ascontiguousarray(
-            np.broadcast_to(u_nodes[:, None, :], (cells.size, n_sub, n_sub))).reshape(cells.size, -1)
-        v_grid = np.ascontiguousarray(
-            np.broadcast_to(v_nodes[:, :, None], (cells.size, n_sub, n_sub))).reshape(cells.size, -1)
-        weight_2d = (weights[:, None] * weights[None, :]).reshape(-1)  # [j, i] order
-        square_weights = np.broadcast_to(
-            half_width * half_width * weight_2d, (cells.size, n_sub * n_sub)).copy()
-        if n_sub >= 4:  # below 4 a one-node radial rule is worse than the plain one
-            ix = cells % self.resolution
-            iy = cells // self.resolution
-            crossed = (ix == iy) | (ix + iy == self.resolution - 1)
-            if np.any(crossed):
-                du, dv, w = _four_triangle_rule(n_sub)  # offsets in units of half_width
-                u_grid[crossed] = 0.5 * (u_lower + u_upper)[crossed, None] + half_width * du
-                v_grid[crossed] = 0.5 * (v_lower + v_upper)[crossed, None] + half_width * dv
-                square_weights[crossed] = half_width * half_width * w
-        from vcavity.binning import squares_to_hemisphere
-
-        directions = squares_to_hemisphere(u_grid.reshape(-1), v_grid.reshape(-1)).reshape(
-            cells.size, n_sub * n_sub, 3)
-        return directions, 0.5 * np.pi * square_weights
-
-
-def _four_triangle_rule(n_sub):
-    """Quadrature on the square ``[-1, 1]^2`` split by both diagonals into 4 triangles.
-
-    Triangle (C = 0, E0, E1): collapsed (Duffy) Gauss-Legendre rule
-    ``P = s (E0 + t (E1 - E0))``, Jacobian ``s |det(E0, E1 - E0)|``, ``s, t`` in
-    ``[0, 1]``.  Returns ``n_sub^2`` offsets ``(du, dv)`` and weights in ``du dv``
-    (sum 4); for odd ``n_sub`` the last node is the centre with weight 0.
-    """
-    n_s = n_sub // 2
-    n_t = n_sub - n_s  # == n_s for even n_sub, n_s + 1 for odd
-    s_nodes, s_weights = np.polynomial.legendre.leggauss(n_s)
-    t_nodes, t_weights = np.polynomial.legendre.leggauss(n_t)
-    s_nodes = 0.5 * (s_nodes + 1.0)
-    s_weights = 0.5 * s_weights
-    t_nodes = 0.5 * (t_nodes + 1.0)
-    t_weights = 0.5 * t_weights
-    corners = np.array([[1.0, -1.0], [1.0, 1.0], [-1.0, 1.0], [-1.0, -1.0]])
-    du, dv, w = [], [], []
-    for k in range(4):
-        e0 = corners[k]
-        e1 = corners[(k + 1) % 4]
-        edge = e1 - e0
-        jacobian = abs(e0[0] * edge[1] - e0[1] * edge[0])  # = 2
-        s = s_nodes[:, None]
-        t = t_nodes[None, :]
-        du.append((s * (e0[0] + t * edge[0])).ravel())
-        dv.append((s * (e0[1] + t * edge[1])).ravel())
-        w.append((jacobian * s * s_weights[:, None] * t_weights[None, :]).ravel())
-    du, dv, w = np.concatenate(du), np.concatenate(dv), np.concatenate(w)
-    padding = n_sub * n_sub - du.size  # 0 (even n_sub) or 1 (odd)
-    return (np.concatenate([du, np.zeros(padding)]), np.concatenate([dv, np.zeros(padding)]),
-            np.concatenate([w, np.zeros(padding)]))

@@ -1,11 +1,12 @@
-"""Tests of the HDF5 table format v1 (vcavity.io.table).
+"""Tests of writing and reading HDF5 tables (vcavity.io.table, vcavity.io.writer).
 
 All checks here are exact or rounding-level comparisons on random but internally
-consistent integer counts drawn with fixed seeds: nothing is statistical, so there is
-no false-positive rate to state.
+consistent integer counts drawn with fixed seeds (tests/io/conftest.py): nothing is
+statistical, so there is no false-positive rate to state. The file layout is checked in
+test_table_layout.py, netCDF/xarray reading in test_table_netcdf.py, format v1 in
+test_table_v1.py.
 """
 
-import json
 import os
 import re
 from pathlib import Path
@@ -15,74 +16,14 @@ import numpy as np
 import pytest
 
 import vcavity
-from vcavity.io import table as table_module
-from vcavity.io.table import FORMAT_VERSION, Table, TableFormatError, open_table, write_table
+from vcavity.io import writer as writer_module
+from vcavity.io.table import FORMAT_VERSION, Table, TableFormatError, open_table
 from vcavity.sensor import EqualAreaSensor
 
 EPS = np.finfo(np.float64).eps
-MATERIAL = {"distribution": "beckmann", "facet": "interfaced_lambertian", "kd": 0.9,
-            "eta": 1.5, "alpha_x": 0.3, "alpha_y": 0.5, "exponent": None}
-CONFIG = {"material": {"distribution": "beckmann", "alpha_x": 0.3, "alpha_y": 0.5},
-          "simulation": {"seed": 7, "max_order": 3}, "incidence": {"theta_i": [0.0, 0.5, 1.2]}}
 
 
-def consistent_run(seed, sensor, n_incidence=3, max_order=3, with_all_orders=True):
-    """Random integer counts obeying the bookkeeping of an analog walk (physics.md sec. 6).
-
-    Every path is exactly one of: exits with order 1..K, exits with order > K,
-    absorbed, truncated, degenerate. Order 0 (if kept) counts every exit.
-    """
-    rng = np.random.default_rng(seed)
-    n_cells = sensor.n_cells
-    paths = rng.integers(1_000, 50_000, size=n_incidence)
-    n_orders = max_order + (1 if with_all_orders else 0)
-    counts = np.zeros((n_incidence, n_orders, n_cells), dtype=np.int64)
-    lost = np.zeros((3, n_incidence), dtype=np.int64)
-    for i in range(n_incidence):
-        shares = rng.dirichlet(np.ones(max_order + 4))
-        split = rng.multinomial(paths[i], shares)  # orders 1..K, order > K, 3 losses
-        per_order = [rng.multinomial(split[k], rng.dirichlet(np.ones(n_cells)))
-                     for k in range(max_order + 1)]
-        first = 1 if with_all_orders else 0
-        for k in range(max_order):
-            counts[i, first + k] = per_order[k]
-        if with_all_orders:
-            counts[i, 0] = np.sum(per_order, axis=0)
-        lost[:, i] = split[max_order + 1:]
-    if not with_all_orders:  # without f_inf, paths beyond K count as truncated
-        lost[1] += paths - counts.sum(axis=(1, 2)) - lost.sum(axis=0)
-    order = np.arange(0 if with_all_orders else 1, max_order + 1)
-    return dict(
-        theta_i=rng.uniform(0.0, 0.5 * np.pi, n_incidence),
-        phi_i=rng.uniform(-np.pi, np.pi, n_incidence),
-        order=order, counts=counts, paths=paths,
-        absorbed_paths=lost[0], truncated_paths=lost[1], degenerate_paths=lost[2],
-        max_bounces_seen=rng.integers(max_order, 500, n_incidence),
-    )
-
-
-def write(path, run, sensor, **overrides):
-    arguments = dict(run, sensor=sensor, material=MATERIAL, config=CONFIG, seed=7,
-                     block_size=4096, max_bounces=1000, compute_time_s=1.5,
-                     compile_time_s=0.25)
-    arguments.update(overrides)
-    write_table(path, **arguments)
-
-
-@pytest.fixture(scope="module")
-def sensor():
-    return EqualAreaSensor(5)
-
-
-@pytest.fixture
-def written(tmp_path, sensor):
-    run = consistent_run(2024, sensor)
-    path = tmp_path / "table.h5"
-    write(path, run, sensor)
-    return path, run
-
-
-def test_round_trip_values(written, sensor):
+def test_round_trip_values(written, sensor, material, config):
     path, run = written
     table = open_table(path)
     assert isinstance(table, Table)
@@ -96,15 +37,72 @@ def test_round_trip_values(written, sensor):
     np.testing.assert_array_equal(table.cell_solid_angle, sensor.cell_solid_angle)
     np.testing.assert_array_equal(table.cell_projected_solid_angle,
                                   sensor.cell_projected_solid_angle)
-    assert table.material == {k: v for k, v in MATERIAL.items() if v is not None}
-    assert table.config == CONFIG
-    assert table.seed == 7 and table.format_version == FORMAT_VERSION == 1
+    assert table.material == {k: v for k, v in material.items() if v is not None}
+    assert table.config == config
+    assert table.seed == 7 and table.format_version == FORMAT_VERSION == 2
     assert table.vcavity_version == vcavity.__version__
     assert table.attrs["block_size"] == 4096 and table.attrs["max_bounces"] == 1000
     assert table.attrs["compute_time_s"] == 1.5 and table.attrs["compile_time_s"] == 0.25
     assert table.attrs["sensor_resolution"] == 5 and table.attrs["n_cells"] == 25
     assert table.path == path
-    assert not table.brdf.flags.writeable  # a frozen table holds read-only arrays
+    # without theta_i_deg/phi_i_deg the degrees are np.degrees of the radians
+    np.testing.assert_array_equal(table.theta_i_deg, np.degrees(run["theta_i"]))
+    np.testing.assert_array_equal(table.phi_i_deg, np.degrees(run["phi_i"]))
+    np.testing.assert_array_equal(table.theta_o, sensor.cell_theta)
+    np.testing.assert_array_equal(table.phi_o, sensor.cell_phi)
+    for name in ("brdf", "theta_i_deg", "phi_i_deg", "theta_o", "phi_o", "counts"):
+        assert not getattr(table, name).flags.writeable, name  # a frozen table: read-only arrays
+
+
+def test_user_degrees_are_stored_as_given(tmp_path, sensor, consistent_run, write):
+    """theta_i_deg = 60 is stored as 60.0, not as degrees(radians(60)) = 59.99999999999999."""
+    run = consistent_run(8, sensor, n_incidence=3)
+    theta_deg, phi_deg = [0.0, 60.0, 89.9], [0.0, 45.0, -120.0]
+    run.update(theta_i=np.radians(theta_deg), phi_i=np.radians(phi_deg))
+    assert np.degrees(np.radians(60.0)) != 60.0  # the round trip does lose the user's number
+    write(tmp_path / "t.h5", run, sensor, theta_i_deg=theta_deg, phi_i_deg=phi_deg)
+    table = open_table(tmp_path / "t.h5")
+    assert table.theta_i_deg.tolist() == theta_deg and table.phi_i_deg.tolist() == phi_deg
+    np.testing.assert_array_equal(table.theta_i, np.radians(theta_deg))
+    with h5py.File(tmp_path / "t.h5", "r") as h5:
+        assert h5["theta_i_deg"][()].tolist() == theta_deg
+        assert h5["phi_i_deg"][()].tolist() == phi_deg
+
+
+def test_degrees_must_match_radians(tmp_path, sensor, consistent_run, write):
+    run = consistent_run(9, sensor, n_incidence=2)
+    good = np.degrees(run["theta_i"])
+    with pytest.raises(ValueError, match="theta_i_deg .* does not match"):
+        write(tmp_path / "t.h5", run, sensor, theta_i_deg=good + [0.0, 1e-6])
+    with pytest.raises(ValueError, match="phi_i_deg .* does not match"):
+        write(tmp_path / "t.h5", run, sensor, phi_i_deg=np.degrees(run["phi_i"]) + 360.0)
+    with pytest.raises(ValueError, match=r"theta_i_deg must have shape \(2,\)"):
+        write(tmp_path / "t.h5", run, sensor, theta_i_deg=good[:1])
+    assert os.listdir(tmp_path) == []
+
+
+def test_large_seed_and_material_value_types(tmp_path, sensor, consistent_run, write, material):
+    """Seeds up to 2**64 - 1 are uint64; booleans become int8 0/1 (netCDF drops enums)."""
+    run = consistent_run(10, sensor, n_incidence=1)
+    extra = dict(material, flag=True, off=np.bool_(False), count=3, huge=2**63 + 1, name="x")
+    write(tmp_path / "t.h5", run, sensor, seed=2**64 - 1, material=extra)
+    table = open_table(tmp_path / "t.h5")
+    assert table.seed == 2**64 - 1
+    assert table.material["flag"] == 1 and table.material["off"] == 0
+    assert table.material["count"] == 3 and table.material["huge"] == 2**63 + 1
+    with h5py.File(tmp_path / "t.h5", "r") as h5:
+        assert h5.attrs["seed"].dtype == np.uint64
+        assert h5["material"].attrs["flag"].dtype == np.int8
+        assert h5["material"].attrs["huge"].dtype == np.uint64
+    write(tmp_path / "t.h5", run, sensor, seed=2**63 - 1)
+    with h5py.File(tmp_path / "t.h5", "r") as h5:
+        assert h5.attrs["seed"].dtype == np.int64
+    for bad_seed in (2**64, -1):
+        with pytest.raises(ValueError, match="seed must be an integer in"):
+            write(tmp_path / "u.h5", run, sensor, seed=bad_seed)
+    with pytest.raises(TypeError, match=r"material\['list'\]"):
+        write(tmp_path / "u.h5", run, sensor, material=dict(material, list=[1, 2]))
+    assert sorted(os.listdir(tmp_path)) == ["t.h5"]
 
 
 def test_derived_quantities_match_plain_numpy(written):
@@ -147,7 +145,7 @@ def test_bookkeeping_closes(written):
     assert np.all(table.counts[:, 1:, :].sum(axis=1) <= table.counts[:, j, :])
 
 
-def test_without_order_zero(tmp_path, sensor):
+def test_without_order_zero(tmp_path, sensor, consistent_run, write):
     run = consistent_run(5, sensor, with_all_orders=False)
     write(tmp_path / "t.h5", run, sensor)
     table = open_table(tmp_path / "t.h5")
@@ -175,63 +173,7 @@ def test_sensor_rebuilt_bins_cell_centres(written, sensor):
                                   np.arange(sensor.n_cells))
 
 
-def test_dimension_scales(written):
-    with h5py.File(written[0], "r") as h5:
-        for name in ("brdf", "brdf_stderr", "counts"):
-            dims = h5[name].dims
-            assert [d.label for d in dims] == ["incidence", "order", "cell"]
-            assert list(dims[0].keys()) == ["theta_i", "phi_i"]
-            assert list(dims[1].keys()) == ["order"]
-            assert list(dims[2].keys()) == ["cell"]
-        assert [d.label for d in h5["albedo"].dims] == ["incidence", "order"]
-        assert [d.label for d in h5["cell_center"].dims] == ["cell", "xyz"]
-        assert list(h5["cell_center"].dims[1].keys()) == ["xyz"]
-        assert [v.decode() for v in h5["xyz"][()]] == ["x", "y", "z"]
-        for name in ("absorbed", "truncated", "degenerate", "paths", "max_bounces_seen"):
-            assert list(h5[name].dims[0].keys()) == ["theta_i", "phi_i"]
-        for name in ("cell_solid_angle", "cell_projected_solid_angle"):
-            assert list(h5[name].dims[0].keys()) == ["cell"]
-        for name in ("theta_i", "phi_i", "order", "cell", "xyz"):
-            assert h5[name].is_scale
-        np.testing.assert_array_equal(h5["cell"][()], np.arange(25))
-        # The attached scale is the coordinate dataset itself.
-        np.testing.assert_array_equal(h5["brdf"].dims[0]["theta_i"][()], h5["theta_i"][()])
-
-
-def test_units_and_descriptions(written):
-    expected_units = {
-        "brdf": "1/sr", "brdf_stderr": "1/sr", "counts": "1", "albedo": "1",
-        "theta_i": "rad", "phi_i": "rad", "order": "1", "cell": "1", "absorbed": "1",
-        "truncated": "1", "degenerate": "1", "paths": "1", "max_bounces_seen": "1",
-        "cell_center": "1", "cell_solid_angle": "sr", "cell_projected_solid_angle": "sr",
-    }
-    with h5py.File(written[0], "r") as h5:
-        datasets = [n for n in h5 if isinstance(h5[n], h5py.Dataset)]
-        assert set(datasets) == set(expected_units) | {"xyz"}
-        for name in datasets:
-            assert h5[name].attrs["description"].strip(), name
-        for name, units in expected_units.items():
-            assert h5[name].attrs["units"] == units, name
-        assert h5["material"].attrs["description"]
-
-
-def test_root_attributes(written, sensor):
-    with h5py.File(written[0], "r") as h5:
-        attrs = h5.attrs
-        assert attrs["format"] == "vcavity-brdf-table"
-        assert attrs["format_version"] == 1
-        assert attrs["vcavity_version"] == vcavity.__version__
-        assert attrs["sensor_partition"] == "shirley-chiu-concentric"
-        assert attrs["sensor_resolution"] == 5 and attrs["n_cells"] == 25
-        assert attrs["seed"] == 7 and attrs["block_size"] == 4096
-        assert attrs["max_bounces"] == 1000
-        assert json.loads(attrs["config"]) == CONFIG
-        assert attrs["created_utc"].endswith("Z")
-        assert h5["material"].attrs["distribution"] == "beckmann"
-        assert "exponent" not in h5["material"].attrs  # None = does not apply
-
-
-def test_write_replaces_existing_file(written, sensor):
+def test_write_replaces_existing_file(written, sensor, consistent_run, write):
     path, _ = written
     other = consistent_run(99, sensor, n_incidence=2)
     write(path, other, sensor, seed=123)
@@ -241,7 +183,8 @@ def test_write_replaces_existing_file(written, sensor):
     assert os.listdir(path.parent) == [path.name]
 
 
-def test_failed_write_leaves_existing_file_untouched(written, sensor, monkeypatch):
+def test_failed_write_leaves_existing_file_untouched(written, sensor, monkeypatch, consistent_run,
+                                                   write):
     path, _ = written
     before = path.read_bytes()
 
@@ -249,7 +192,7 @@ def test_failed_write_leaves_existing_file_untouched(written, sensor, monkeypatc
         raise RuntimeError("disk on fire")
 
     # _write_material runs after all datasets are in the temporary file.
-    monkeypatch.setattr(table_module, "_write_material", fail_midway)
+    monkeypatch.setattr(writer_module, "_write_material", fail_midway)
     with pytest.raises(RuntimeError, match="disk on fire"):
         write(path, consistent_run(3, sensor), sensor)
     assert path.read_bytes() == before
@@ -259,7 +202,7 @@ def test_failed_write_leaves_existing_file_untouched(written, sensor, monkeypatc
     assert os.listdir(path.parent) == [path.name]
 
 
-def test_inconsistent_input_is_rejected_before_writing(tmp_path, sensor):
+def test_inconsistent_input_is_rejected_before_writing(tmp_path, sensor, consistent_run, write):
     run = consistent_run(11, sensor)
     leaky = dict(run, absorbed_paths=run["absorbed_paths"] - 1)  # one path unaccounted for
     with pytest.raises(ValueError, match="!= paths"):
@@ -306,9 +249,9 @@ def test_missing_dataset(written):
 def test_unsupported_version(written):
     path, _ = written
     with h5py.File(path, "a") as h5:
-        h5.attrs["format_version"] = 2
+        h5.attrs["format_version"] = 3
     message = _single_line_error(path, "unsupported format_version")
-    assert message == f"unsupported format_version 2 in {path} (this vcavity reads 1)"
+    assert message == f"unsupported format_version 3 in {path} (this vcavity reads 1, 2)"
 
 
 def test_inconsistent_shape(written):
@@ -331,12 +274,16 @@ def test_table_error_is_a_value_error():
 DOCS = Path(__file__).resolve().parents[2] / "docs" / "hdf5-format.md"
 
 
-def test_documentation_snippets_run(written, sensor):
+def test_documentation_snippets_run(tmp_path, sensor, consistent_run, write):
     """The ```python blocks of docs/hdf5-format.md run, in order, against a real table."""
-    path, _ = written
+    path = tmp_path / "table.h5"
+    run = consistent_run(2025, sensor)
+    degrees = {"theta_i_deg": [0.0, 30.0, 60.0], "phi_i_deg": [0.0, 0.0, 45.0]}
+    run.update(theta_i=np.radians(degrees["theta_i_deg"]), phi_i=np.radians(degrees["phi_i_deg"]))
+    write(path, run, sensor, **degrees)
     text = DOCS.read_text(encoding="utf-8")
     blocks = re.findall(r"```python\n(.*?)```", text, flags=re.S)
-    assert len(blocks) >= 3
+    assert len(blocks) >= 4
     namespace = {"path": path}
     for block in blocks:
         exec(compile(block, str(DOCS), "exec"), namespace)  # noqa: S102 - our own docs

@@ -24,6 +24,7 @@ freedom per pair. One test per order (f_inf, f1, f2, f3), each at the Sidak leve
 import numpy as np
 import pytest
 
+from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.analytic.statistics import chi2_sf, sidak_threshold
 from vcavity.config import validate
 from vcavity.sensor import EqualAreaSensor
@@ -46,7 +47,7 @@ def _reciprocity_chi_square(material, n_pairs, paths, seed):
     rng = np.random.default_rng(seed)
     pairs = _pairs(rng, n_pairs, sensor)
     cells = sorted({c for pair in pairs for c in pair})
-    directions, weights = sensor.subcell_quadrature(N_SUB, cells=np.array(cells))
+    directions, weights = subcell_quadrature(sensor, N_SUB, cells=np.array(cells))
     theta = np.degrees(np.arccos(directions[..., 2])).ravel()
     phi = np.degrees(np.arctan2(directions[..., 1], directions[..., 0])).ravel()
     cfg = validate({"material": material,

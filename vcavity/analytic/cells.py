@@ -3,7 +3,7 @@
 A table holds ``brdf[c] = (1/Ω⊥_c) ∫_c f(i, o) cos θ_o dω_o`` and a simulation's
 expected count of order ``k`` in cell ``c`` is ``N_paths ∫_c f_k cos θ_o dω_o``. The
 integral over a cell is a Gauss-Legendre rule in the sensor's square coordinates
-(:meth:`vcavity.sensor.EqualAreaSensor.subcell_quadrature`, which splits the cells that
+(:func:`vcavity.analytic.quadrature.subcell_quadrature`, which splits the cells that
 the concentric map's kinks cross), never a value at the cell centre.
 
 Sub-points per cell: the smooth body term needs few (``DEFAULT_BODY_SUB = 4``, and 8 on
@@ -19,6 +19,7 @@ import math
 
 import numpy as np
 
+from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.sensor import EqualAreaSensor
 
@@ -34,7 +35,7 @@ def specular_subpoints(model: SingleBounceModel, sensor: EqualAreaSensor) -> int
     """Sub-points per cell side for the specular term.
 
     ``ceil(6 δ / w)`` clipped to [16, 48], with ``δ = sqrt(2π)/N`` the angular side of a
-    cell and ``w`` the roughness width (:func:`~vcavity.analytic.single_bounce.lobe_width`).
+    cell and ``w`` the roughness width (the distribution's ``lobe_width``, :mod:`vcavity.microfacet.registry`).
     The specular lobe in ``o`` is about ``2 w`` wide; measured relative error of the
     specular albedo summed over cells below 1e-7 and of any cell below 1e-5 of the
     largest cell with this rule for alpha >= 0.05 at N = 57 (docs/validation.md).
@@ -70,7 +71,7 @@ def _integrate(projected, incident, sensor, n_sub, cells, chunk_points=262144):
         per_chunk = max(1, chunk_points // (n * n))
         for start in range(0, positions.size, per_chunk):
             chosen = positions[start:start + per_chunk]
-            directions, weights = sensor.subcell_quadrature(int(n), cells=cells[chosen])
+            directions, weights = subcell_quadrature(sensor, int(n), cells=cells[chosen])
             values = projected(incident, directions.reshape(-1, 3)).reshape(weights.shape)
             out[chosen] = np.sum(values * weights, axis=1)
     return out

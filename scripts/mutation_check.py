@@ -1,0 +1,211 @@
+"""Plant known bugs in copies of the package and check that the default test suite catches each.
+
+    python scripts/mutation_check.py                 # every mutant, default suite each
+    python scripts/mutation_check.py --list          # the mutants and the tests meant to catch them
+    python scripts/mutation_check.py --only solid-angle-x2 --only beyond-k-as-k
+    python scripts/mutation_check.py --quick         # only the catching tests (a fast smoke run)
+
+For each mutant the repository's tracked files (``git ls-files``) are copied to a
+temporary folder, one exact source edit is applied (an edit whose text no longer
+appears exactly once is reported as STALE: update this list after refactors), and the
+default suite (``python -m pytest -x -q``, i.e. without ``slow`` tests) runs on the copy
+with a fresh ``NUMBA_CACHE_DIR`` and ``PYTHONPATH`` pointing at the copy. The tests meant
+to catch the mutant run first, then the whole default suite, so a caught mutant usually
+stops early. A mutant is CAUGHT when pytest reports failures (exit status 1), SURVIVED
+when the suite passes (exit 0), and ERROR otherwise (collection or usage errors: the
+mutation broke imports, which proves nothing about the tests).
+
+Exit status: 0 when every mutant was caught, 1 otherwise. The list below is the one
+documented in docs/validation.md ("Planted bugs").
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+from dataclasses import dataclass
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@dataclass(frozen=True)
+class Mutant:
+    """One planted bug: replace ``old`` (which must occur exactly once) by ``new`` in ``path``."""
+
+    name: str
+    path: str
+    old: str
+    new: str
+    what: str
+    caught_by: tuple[str, ...]
+
+
+MUTANTS = (
+    Mutant("fresnel-macro-cosine", "vcavity/facet/interfaced_lambertian.py",
+           "        reflected = _below_fresnel(u, cos_in, data)",
+           "        reflected = _below_fresnel(u, -dz, data)",
+           "Fresnel evaluated with the macro cosine instead of the facet cosine",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("body-emission-not-cosine", "vcavity/facet/interfaced_lambertian.py",
+           "        mu = math.sqrt(1.0 - rho2)\n",
+           "        mu = 1.0 - rho2\n        a = a * math.sqrt((1.0 - mu * mu) / rho2)\n"
+           "        b = b * math.sqrt((1.0 - mu * mu) / rho2)\n",
+           "body re-emission uniform in mu (not cosine-weighted)",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("no-transmission-on-body-exit", "vcavity/facet/interfaced_lambertian.py",
+           "        if variant == FULL:\n            # accept with probability T(mu)",
+           "        if variant == -1:\n            # accept with probability T(mu)",
+           "light leaving the body is not filtered by the interface's transmittance",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("solid-angle-x2", "vcavity/sensor.py",
+           "projected = 0.5 * np.pi * _projected_integral_over_rectangles(*bounds)",
+           "projected = np.pi * _projected_integral_over_rectangles(*bounds)",
+           "every cell's projected solid angle doubled (tables' BRDF off by 2x)",
+           ("tests/validation/test_brdf_units.py",)),
+    Mutant("max-instead-of-min-masking", "vcavity/microfacet/common.py",
+           "    return gi if gi < go else go",
+           "    return gi if gi > go else go",
+           "V-cavity G2 = max(G1_i, G1_o) instead of min (the analytic model)",
+           ("tests/validation/test_f1_vs_vcavity.py",)),
+    Mutant("beyond-k-as-k", "vcavity/kernels/trace.py",
+           "slot_counts[k if k <= max_order else 0, cell] += 1",
+           "slot_counts[min(k, max_order), cell] += 1",
+           "exits with more than K bounces counted as order K instead of the beyond-K slot",
+           ("tests/validation/test_orders_reference.py",)),
+    Mutant("alpha-xy-swapped", "vcavity/microfacet/ggx.py",
+           'return np.array([values["alpha_x"], values["alpha_y"]], dtype=np.float64)',
+           'return np.array([values["alpha_y"], values["alpha_x"]], dtype=np.float64)',
+           "GGX alpha_x and alpha_y swapped in the parameter packing",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("mirrored-exit-azimuth", "vcavity/kernels/trace.py",
+           "    wy = dx * sin_phi + dy * cos_phi",
+           "    wy = -(dx * sin_phi + dy * cos_phi)",
+           "exit direction mirrored about the x axis when leaving the groove",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("chi-square-complement-dropped", "vcavity/analytic/statistics.py",
+           "    if rest_exp > 0.0 or rest_obs > 0.0:\n        obs.append(rest_obs)",
+           "    if False:\n        obs.append(rest_obs)",
+           "the 'not in any cell' category left out of the chi-square",
+           ("tests/analytic/test_statistics.py",)),
+    Mutant("gaussian-inverse-cdf-factor", "vcavity/microfacet/gaussian.py",
+           "    w = math.sqrt(-2.0 * math.log1p(-u1))",
+           "    w = math.sqrt(-math.log1p(-u1))",
+           "factor 2 dropped in the Gaussian's tabulated inverse CDF",
+           ("tests/microfacet/test_distributions.py",)),
+    Mutant("oren-nayar-term-removed", "vcavity/analytic/oren_nayar.py",
+           "    if interreflection:\n        value = single + 0.17",
+           "    if False:\n        value = single + 0.17",
+           "the 0.17 inter-reflection term of Oren-Nayar removed",
+           ("tests/analytic/test_oren_nayar_walter.py",)),
+    Mutant("chunk-local-block-index", "vcavity/kernels/trace.py",
+           "                block = first_block + b\n",
+           "                block = b\n",
+           "RNG block index local to the chunk (chunks repeat streams)",
+           ("tests/test_simulate.py",)),
+    Mutant("emergence-probability-is-kd", "vcavity/facet/interfaced_lambertian.py",
+           '    head = [eta, float(emergence_probability(float(values["kd"]), eta))]',
+           '    head = [eta, float(values["kd"])]',
+           "body re-emission probability kd instead of kd (1 - r_i)/(1 - kd r_i)",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("fresnel-inverted-index", "vcavity/facet/interfaced_lambertian.py",
+           "    eta = float(values[\"eta\"])\n    head = ",
+           "    eta = 1.0 / float(values[\"eta\"])\n    head = ",
+           "the facet's Fresnel term evaluated with 1/eta (light from inside)",
+           ("tests/validation/test_f1_reference.py",)),
+    Mutant("beckmann-radial-slope", "vcavity/microfacet/beckmann.py",
+           "    r_over_sqrt_s = math.sqrt(-math.log(s) / s)",
+           "    r_over_sqrt_s = math.sqrt(-math.log(s)) / s",
+           "Beckmann's trig-free groove sampler with a wrong radial slope",
+           ("tests/microfacet/test_distributions.py",)),
+)
+
+
+def _tracked_files() -> list[str]:
+    out = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True)
+    return [line for line in out.stdout.splitlines() if line]
+
+
+def _copy_tree(destination: Path) -> None:
+    for name in _tracked_files():
+        source = ROOT / name
+        if not source.is_file():
+            continue  # deleted in the work tree
+        target = destination / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(source, target)
+
+
+def _apply(mutant: Mutant, tree: Path) -> bool:
+    path = tree / mutant.path
+    text = path.read_text()
+    if text.count(mutant.old) != 1:
+        return False
+    path.write_text(text.replace(mutant.old, mutant.new))
+    return True
+
+
+def run_mutant(mutant: Mutant, quick: bool, keep: bool) -> tuple[str, float, str]:
+    """(verdict, seconds, first failing test or message) for one mutant."""
+    tree = Path(tempfile.mkdtemp(prefix=f"vcavity-mutant-{mutant.name}-"))
+    try:
+        _copy_tree(tree)
+        if not _apply(mutant, tree):
+            return "STALE", 0.0, f"text not found exactly once in {mutant.path}"
+        env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "PYTHONPATH")}
+        env["NUMBA_CACHE_DIR"] = str(tree / ".numba-cache")
+        env["PYTHONPATH"] = str(tree)
+        targets = list(mutant.caught_by) + ([] if quick else ["tests"])
+        command = [sys.executable, "-m", "pytest", "-x", "-q", "-p", "no:cacheprovider", "-rf", *targets]
+        start = time.perf_counter()
+        done = subprocess.run(command, cwd=tree, env=env, capture_output=True, text=True)
+        seconds = time.perf_counter() - start
+        failed = [line[len("FAILED "):].split(" - ")[0] for line in done.stdout.splitlines()
+                  if line.startswith("FAILED ")]
+        if done.returncode == 1:
+            return "CAUGHT", seconds, failed[0] if failed else "(failures)"
+        if done.returncode == 0:
+            return "SURVIVED", seconds, ""
+        tail = (done.stdout + done.stderr).strip().splitlines()[-1:] or ["?"]
+        return "ERROR", seconds, f"pytest exit {done.returncode}: {tail[0][:150]}"
+    finally:
+        if keep:
+            print(f"  kept {tree}", flush=True)
+        else:
+            shutil.rmtree(tree, ignore_errors=True)
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", action="append", metavar="NAME", help="run only this mutant (repeatable)")
+    parser.add_argument("--list", action="store_true", help="list the mutants and exit")
+    parser.add_argument("--quick", action="store_true",
+                        help="run only each mutant's catching tests, not the whole default suite")
+    parser.add_argument("--keep", action="store_true", help="keep the mutant copies (for debugging)")
+    args = parser.parse_args(argv)
+    chosen = [m for m in MUTANTS if not args.only or m.name in args.only]
+    unknown = set(args.only or ()) - {m.name for m in MUTANTS}
+    if unknown:
+        parser.error(f"unknown mutant(s): {', '.join(sorted(unknown))}")
+    if args.list:
+        for m in chosen:
+            print(f"{m.name:32s} {m.what}\n{'':32s} caught by: {', '.join(m.caught_by)}")
+        return 0
+    results = []
+    for m in chosen:
+        verdict, seconds, detail = run_mutant(m, args.quick, args.keep)
+        results.append(verdict)
+        print(f"{m.name:32s} {verdict:8s} {seconds:7.1f} s  {detail}", flush=True)
+    caught = results.count("CAUGHT")
+    print(f"{caught} of {len(results)} mutants caught"
+          + ("" if caught == len(results) else f"; not caught: {len(results) - caught}"))
+    return 0 if caught == len(results) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
