@@ -40,16 +40,20 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from vcavity.config import validate
-from vcavity.io.table import open_table, write_table
-from vcavity.rng import BLOCK_SIZE
 from vcavity.binning import direction_to_cell
+from vcavity.config import validate
+from vcavity.facet import registry as facets
+from vcavity.io.table import open_table, write_table
+from vcavity.microfacet import registry as distributions
+from vcavity.parameters import Roughness
+from vcavity.rng import BLOCK_SIZE
 from vcavity.simulate import incident_vector, simulate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # also when imported by the tests
-from stress_f1 import body_escape, clipped_cos_average, f1_reference  # noqa: E402
+from stress_f1 import body_escape, clipped_cos_average, f1_reference, reemission_probability  # noqa: E402
 
-__all__ = ["Case", "Row", "build_cases", "run_case", "main", "f1_reference", "body_escape", "clipped_cos_average"]
+__all__ = ["Case", "Row", "build_cases", "run_case", "main", "f1_reference", "body_escape", "clipped_cos_average",
+           "reemission_probability", "roughness_of_width"]
 
 Z_MAX = 5.0
 CAP = 10_000
@@ -68,31 +72,67 @@ class Case:
 
 
 def _mat(**changes):
-    """BASE with changes; facet='mirror' drops kd/eta, alpha_x/y or another law drops alpha."""
+    """BASE with changes. A parameter of BASE's distribution or facet is dropped when the
+    new one does not take it or the changes set the same parameter: facet='mirror' drops
+    kd/eta, alpha_x/y or another law's parameter drops alpha (registries' declarations)."""
     m = dict(BASE)
-    if changes.get("facet") == "mirror":
-        m.pop("kd"), m.pop("eta")
-    if set(changes) & {"alpha_x", "exponent", "sigma"}:
-        m.pop("alpha")
-    if "distribution" in changes and changes["distribution"] in ("phong", "gaussian") and "alpha" in m:
-        m.pop("alpha")
+    for component, registry in (("distribution", distributions), ("facet", facets)):
+        new_keys = registry.config_keys(changes.get(component, m[component]))
+        for spec in registry.get(m[component]).PARAMETERS:
+            replaced = bool(set(spec.keys) & set(changes))
+            for key in spec.keys:
+                if key in m and key not in changes and (replaced or key not in new_keys):
+                    del m[key]
     m.update(changes)
     return m
 
 
+def roughness_of_width(dist: str, width: float) -> dict:
+    """Config parameters of ``dist`` whose lobe width (the registry's ``lobe_width``, radians
+    of theta_m) is ``width``: the roughness spec's first key, solved by bisection in log
+    scale between its bounds; other required parameters get their documented example,
+    optional ones keep their defaults."""
+    specs = distributions.get(dist).PARAMETERS
+    rough = next(spec for spec in specs if isinstance(spec, Roughness) or spec.default is None)
+    raw = {spec.keys[0]: spec.example for spec in specs if spec is not rough and spec.default is None}
+
+    def width_of(x):
+        return distributions.lobe_width(dist, distributions.parse(dist, {**raw, rough.keys[0]: x}))
+
+    if isinstance(rough, Roughness):
+        lo, hi = 1e-300, 1e300
+    else:
+        lo = max(rough.lo if rough.lo is not None else -1e300, 1e-300)
+        hi = rough.hi if rough.hi is not None else 1e300
+        lo = lo if not rough.lo_open or lo != rough.lo else math.nextafter(lo, math.inf)
+        hi = hi if not rough.hi_open or hi != rough.hi else math.nextafter(hi, -math.inf)
+    increasing = width_of(hi) > width_of(lo)
+    for _ in range(200):
+        mid = math.sqrt(lo) * math.sqrt(hi)
+        if (width_of(mid) < width) == increasing:
+            lo = mid
+        else:
+            hi = mid
+    return {**raw, rough.keys[0]: float(f"{math.sqrt(lo) * math.sqrt(hi):.6g}")}
+
+
+# Roughness in each law's own parameter, for the distributions the grid was designed with;
+# any other registered distribution gets the parameter of the same lobe width.
+TINY = {"beckmann": {"alpha": 1e-4}, "ggx": {"alpha": 1e-4}, "phong": {"exponent": 2e8}, "gaussian": {"sigma": 1e-4}}
+MODERATE = {"beckmann": {"alpha": 0.5}, "ggx": {"alpha": 0.5}, "phong": {"exponent": 6.0}, "gaussian": {"sigma": 0.35}}
+
+
 def _tiny(dist):
     """Roughness ~1e-4 rad in each law's own parameter (phong: 2/alpha^2 - 2)."""
-    return {"beckmann": {"alpha": 1e-4}, "ggx": {"alpha": 1e-4}, "phong": {"exponent": 2e8},
-            "gaussian": {"sigma": 1e-4}}[dist]
+    return TINY[dist] if dist in TINY else roughness_of_width(dist, 1e-4)
 
 
 def _moderate(dist):
     """Roughness comparable to BASE's alpha 0.5 in each law's parameter."""
-    return {"beckmann": {"alpha": 0.5}, "ggx": {"alpha": 0.5}, "phong": {"exponent": 6.0},
-            "gaussian": {"sigma": 0.35}}[dist]
+    return MODERATE[dist] if dist in MODERATE else roughness_of_width(dist, 0.5)
 
 
-DISTS = ("beckmann", "ggx", "phong", "gaussian")
+DISTS = distributions.NAMES  # every registered distribution (build_cases reads the registry itself)
 
 
 def build_cases(quick: bool = False) -> list[Case]:
@@ -112,11 +152,11 @@ def build_cases(quick: bool = False) -> list[Case]:
     for r in (10, 100, 1000):
         for p in (0.0, 90.0):
             c.append(Case(f"aniso {r}:1 phi={p:g}", _mat(alpha_x=0.5, alpha_y=0.5 / r), 45.0, p))
-    for d in DISTS:
+    for d in distributions.NAMES:
         c.append(Case(f"dist {d} IL", _mat(distribution=d, **_moderate(d)), 45.0))
         c.append(Case(f"dist {d} mirror", _mat(distribution=d, facet="mirror", **_moderate(d)), 45.0))
     # 2. nasty combinations
-    for d in DISTS:
+    for d in distributions.NAMES:
         for t in (0.0, 89.99):
             c.append(Case(f"tiny {d} mirror", _mat(distribution=d, facet="mirror", **_tiny(d)), t))
             c.append(Case(f"tiny {d} IL kd=1", _mat(distribution=d, kd=1.0, **_tiny(d)), t))
@@ -183,6 +223,14 @@ def _z(sim, ref, ref_err, paths):
     return (sim - ref) / math.sqrt(var)
 
 
+def _lossless(material) -> bool:
+    """True when no facet event absorbs (physics.md sec. 4, 8): the facet reflects every hit
+    (a mirror) or its body re-emits all the light it receives (IL with kd = 1)."""
+    kind, _, data = facets.prepare(material.facet, material.facet_params)
+    reflects_all = all(facets.reflectance(kind, c, data) == 1.0 for c in np.linspace(0.0, 1.0, 65))
+    return reflects_all or reemission_probability(material) == 1.0
+
+
 def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
     """Simulate one case, write and re-read its table, measure and check the invariants.
 
@@ -237,7 +285,7 @@ def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
     v["max_bounces"] = int(table.max_bounces_seen[0])
     if v["max_bounces"] > CAP or (result.truncated_paths[0] > 0 and v["max_bounces"] != CAP):
         bad(f"cap: max_bounces_seen {v['max_bounces']} with cap {CAP}")
-    conserving = case.material.get("facet") == "mirror" or case.material.get("kd") == 1.0
+    conserving = _lossless(cfg.material)
     if conserving and result.absorbed_paths[0] != 0:
         bad(f"energy: {result.absorbed_paths[0]} paths absorbed with kd = 1 / mirror facets")
     if v["degenerate"]:
@@ -253,7 +301,7 @@ def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
     v["spec_ref"] = spec_ref
     # only for a lobe narrow enough that most of f1 lands in the mirror cell: for broad
     # lobes the indicator of one small cell is not resolved by the groove grid
-    if (case.material.get("facet") == "mirror" or case.material.get("kd") == 0.0) and spec_ref >= 0.5 * f1_ref:
+    if reemission_probability(cfg.material) == 0.0 and spec_ref >= 0.5 * f1_ref:
         i = incident_vector(math.radians(case.theta_deg), math.radians(case.phi_deg))
         cell = int(direction_to_cell(-i[0], -i[1], i[2], table.sensor.resolution))
         v["spec_sim"] = float(table.counts[0, k1, cell]) / paths
@@ -266,13 +314,21 @@ def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
 # ------------------------------------------------------------------- report
 
 
+_SHORT = {"alpha": "a", "exponent": "e", "sigma": "s", "interfaced_lambertian": "IL"}
+
+
 def describe(material: dict) -> str:
     """Short material label, e.g. ``ggx a=10 IL kd=1 eta=1.5``."""
-    m = material
-    rough = " ".join(f"{k.replace('alpha', 'a').replace('exponent', 'e').replace('sigma', 's')}={m[k]:g}"
-                     for k in ("alpha", "alpha_x", "alpha_y", "exponent", "sigma") if k in m)
-    facet = "mirror" if m.get("facet") == "mirror" else f"IL kd={m['kd']:g} eta={m['eta']:.10g}"
-    return f"{m['distribution']} {rough} {facet}"
+    m = validate({"material": material}).material.to_dict() | material  # the facet's defaults too
+    dist, facet = m["distribution"], m["facet"]
+
+    def short(key):
+        head, _, tail = key.partition("_")
+        return _SHORT.get(head, head) + ("_" + tail if tail else "")
+
+    rough = " ".join(f"{short(k)}={m[k]:g}" for k in distributions.config_keys(dist) if k in material)
+    facet_values = " ".join(f"{k}={m[k]:.10g}" for k in facets.config_keys(facet))
+    return " ".join(x for x in (dist, rough, _SHORT.get(facet, facet), facet_values) if x)
 
 
 HEADER = ("case", "material", "theta_i", "phi_i", "paths", "NaN/Inf", "books err", "truncated",

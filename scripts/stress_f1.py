@@ -17,25 +17,35 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, prange
+from numba import literally, njit, prange
 
-from vcavity.config import validate
-from vcavity.facet.fresnel import emergence_probability, fresnel_dielectric, fresnel_transmittance
-from vcavity.microfacet import beckmann, gaussian, ggx, phong
 from vcavity.binning import direction_to_cell
-from vcavity.simulate import distribution_params, incident_vector
+from vcavity.config import Material, validate
+from vcavity.facet import registry as facets
+from vcavity.facet.fresnel import emergence_probability
+from vcavity.microfacet import registry as distributions
+from vcavity.simulate import Scene, incident_vector
 
 
 @njit(cache=True, inline="always")
 def _normal(kind, u1, u2, params):
-    """Normal sampled with pdf D(m)(m.n) by the library's map (physics.md sec. 2)."""
-    if kind == beckmann.KIND:
-        return beckmann.sample_normal(u1, u2, params)
-    if kind == ggx.KIND:
-        return ggx.sample_normal(u1, u2, params)
-    if kind == phong.KIND:
-        return phong.sample_normal(u1, u2, params)
-    return gaussian.sample_normal(u1, u2, params)
+    """Normal sampled with pdf D(m)(m.n) by the library's map (physics.md sec. 2), for any
+    registered distribution (``kind`` a compile-time constant)."""
+    return distributions.sample_normal(kind, u1, u2, params)
+
+
+def reemission_probability(material: Material) -> float:
+    """Probability that light transmitted into a facet's body re-emerges (physics.md sec. 4).
+
+    For the IL facet ``a = emergence_probability(kd, eta)`` (IL eq. 4-8 summed over the
+    internal reflections; 0 at kd = 0, exactly 1 at kd = 1 for every eta); 0 for a facet
+    without a body term (mirror).
+    """
+    if material.facet == "interfaced_lambertian":
+        return float(emergence_probability(material.facet_params["kd"], material.facet_params["eta"]))
+    if facets.body_factor(material.facet, material.facet_params) == 0.0:
+        return 0.0
+    raise NotImplementedError(f"f1_reference: re-emission probability of facet {material.facet!r}")
 
 
 @njit(cache=True)
@@ -53,9 +63,9 @@ def clipped_cos_average(a, b, g):
 
 
 @njit(cache=True)
-def body_escape(mz, st, g, eta, gl_x, gl_w):
-    """``E_o[min(g, G1_V(o, m))]`` for o leaving the IL body (pdf ~ T(o.m)(o.m), physics.md
-    sec. 4): the fraction of a lit band ``[0, g]`` of the facet (from the rim) from which
+def body_escape(mz, st, g, facet_kind, facet_data, gl_x, gl_w):
+    """``E_o[min(g, G1_V(o, m))]`` for o leaving the facet's body (pdf ~ T(o.m)(o.m) with the
+    facet's transmittance T, physics.md sec. 4; ``facet_kind`` a compile-time constant): the fraction of a lit band ``[0, g]`` of the facet (from the rim) from which
     the emerging light escapes the groove without another bounce (IL eq. 12 with G2_V).
 
     In the facet frame ``o = mu m + sqrt(1-mu^2)(cos psi t1 + sin psi t2)`` gives
@@ -63,6 +73,7 @@ def body_escape(mz, st, g, eta, gl_x, gl_w):
     average is :func:`clipped_cos_average`; mu uses Gauss-Legendre on the three pieces
     between its kinks ``mu = st`` and ``B(mu) = |A - g|``, self-normalised.
     """
+    literally(facet_kind)
     if st <= 0.0 or mz <= 0.0:
         return g
     big_a = 2.0 * mz * mz
@@ -85,7 +96,7 @@ def body_escape(mz, st, g, eta, gl_x, gl_w):
             else:
                 mu = a + (b - a) * tau
                 w = 0.5 * gl_w[n] * (b - a)
-            p = 2.0 * mu * fresnel_transmittance(mu, eta) * w
+            p = 2.0 * mu * facets.transmittance(facet_kind, mu, facet_data) * w
             big_b = 2.0 * mz * st * math.sqrt((1.0 - mu) * (1.0 + mu)) / mu
             num += p * clipped_cos_average(big_a, big_b, g)
             den += p
@@ -102,6 +113,7 @@ def _across(kind, u1, u2, params, ix, iy):
 @njit(cache=True)
 def _crossings(kind, u1, params, ix, iy):
     """The two u2 in [0, 1) where ``_across`` changes sign (azimuth maps are monotone)."""
+    literally(kind)
     out = np.array([0.0, 0.5])
     found = 0
     n = 64
@@ -125,14 +137,18 @@ def _crossings(kind, u1, params, ix, iy):
 
 
 @njit(cache=True, parallel=True)
-def _f1_grid(kind, params, ix, iy, iz, eta, mirror, emergence, n_t, gl_x, gl_w, spec_cell, resolution):
+def _f1_grid(kind, params, ix, iy, iz, facet_kind, facet_data, emergence, n_t, gl_x, gl_w, spec_cell, resolution):
     """(f1 albedo, f1 share of the mirror cell from the specular term) on an n_t x 2n_t grid.
 
     u1 = 1 - (1-t)^2 (physics.md sec. 9); u2 in two pieces between the azimuths where the
     groove axis lies in the plane of incidence, nodes graded toward both ends
     (w = tau^3/(tau^3 + (1-tau)^3)): at grazing light the escape changes on a scale
-    ~cos(theta_i) there, which a uniform grid misses.
+    ~cos(theta_i) there, which a uniform grid misses. The facet reflects with its
+    reflectance R(i.m) and transmits T(i.m) into its body, which re-emits with probability
+    ``emergence`` (``kind``, ``facet_kind``: compile-time constants).
     """
+    literally(kind)
+    literally(facet_kind)
     n_u2 = n_t  # per piece
     total = np.zeros(n_t)
     cell = np.zeros(n_t)
@@ -158,7 +174,7 @@ def _f1_grid(kind, params, ix, iy, iz, eta, mirror, emergence, n_t, gl_x, gl_w, 
                     continue
                 hit = im / (mz * iz)  # facet area seen from i per unit opening (times G1)
                 g_i = min(1.0, 2.0 * mz * iz / im)  # lit band from the rim (H eq. 49)
-                f = 1.0 if mirror else fresnel_dielectric(im, eta)
+                f = facets.reflectance(facet_kind, im, facet_data)
                 oz = 2.0 * im * mz - iz  # mirror direction o = 2 (i.m) m - i
                 g_o = 0.0 if oz <= 0.0 else min(1.0, 2.0 * mz * oz / im)
                 spec = f * hit * min(g_i, g_o) * dw
@@ -168,10 +184,10 @@ def _f1_grid(kind, params, ix, iy, iz, eta, mirror, emergence, n_t, gl_x, gl_w, 
                     oy = 2.0 * im * my - iy
                     if direction_to_cell(ox, oy, oz, resolution) == spec_cell:
                         acc_cell += spec
-                if not mirror and emergence > 0.0:
+                if emergence > 0.0:
                     st = math.sqrt(mx * mx + my * my)
-                    acc += dw * hit * fresnel_transmittance(im, eta) * emergence * body_escape(
-                        mz, st, g_i, eta, gl_x, gl_w)
+                    acc += dw * hit * facets.transmittance(facet_kind, im, facet_data) * emergence * body_escape(
+                        mz, st, g_i, facet_kind, facet_data, gl_x, gl_w)
         w = 2.0 * (1.0 - t) / n_t
         total[j] = acc * w
         cell[j] = acc_cell * w
@@ -202,13 +218,12 @@ def f1_reference(material: dict, theta_deg: float, phi_deg: float = 0.0, n_t: in
     """
     cfg = validate({"material": material, "incidence": {"theta_i_deg": [theta_deg], "phi_i_deg": phi_deg}})
     m = cfg.material
-    kind, params = distribution_params(m)
-    mirror = m.facet == "mirror"
-    emergence = 0.0 if mirror else float(emergence_probability(m.kd, m.eta))
+    scene = Scene.of(m)  # the parameter arrays and facet data the kernel gets
+    emergence = reemission_probability(m)
     i = incident_vector(math.radians(theta_deg), math.radians(phi_deg))
     spec_cell = int(direction_to_cell(-i[0], -i[1], i[2], resolution))
     gl_x, gl_w = np.polynomial.legendre.leggauss(16)
-    args = (kind, params, i[0], i[1], i[2], float(m.eta), mirror, emergence)
+    args = (scene.dist_kind, scene.params, i[0], i[1], i[2], scene.facet_kind, scene.facet_data, emergence)
     fine = _f1_grid(*args, n_t, gl_x, gl_w, spec_cell, resolution)
     coarse = _f1_grid(*args, n_t // 2, gl_x, gl_w, spec_cell, resolution)
     return fine[0], abs(fine[0] - coarse[0]), fine[1], abs(fine[1] - coarse[1])

@@ -76,3 +76,13 @@ def test_values_just_inside_the_edge_run(tmp_path, capsys):
         assert table.degenerate.sum() == 0 and (table.brdf >= 0).all()
         out_path.unlink()
     capsys.readouterr()
+
+
+@pytest.mark.parametrize("material, message", [
+    ({"kd": None}, "material.kd is missing: facet 'interfaced_lambertian' needs kd ("),
+    ({"facet": '"mirror"', "eta": None}, "material.kd = 0.5: not used by facet 'mirror' (it takes: nothing)"),
+    ({"exponent": "20.0"}, "material.exponent = 20.0: not a parameter of distribution 'beckmann' "
+                           "(it takes: alpha, alpha_x, alpha_y)"),
+])
+def test_missing_and_misplaced_parameters(tmp_path, capsys, material, message):
+    assert message in _run_bad(tmp_path, capsys, material=material)

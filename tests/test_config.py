@@ -4,7 +4,9 @@ import math
 
 import pytest
 
-from vcavity.config import ConfigError, default_config, load, validate
+from vcavity.config import ConfigError, Material, default_config, load, validate
+from vcavity.facet import registry as facets
+from vcavity.microfacet import registry as distributions
 
 
 def _raw(**material):
@@ -16,7 +18,11 @@ def _raw(**material):
 def test_default_is_figure_7b():
     cfg = default_config()
     m = cfg.material
-    assert (m.distribution, m.alpha_x, m.alpha_y, m.kd, m.eta) == ("beckmann", 0.6, 0.6, 0.9, 1.5)
+    assert (m.distribution, m.facet) == ("beckmann", "interfaced_lambertian")
+    assert m.distribution_params == {"alpha_x": 0.6, "alpha_y": 0.6}
+    assert m.facet_params == {"kd": 0.9, "eta": 1.5}
+    assert (m.distribution_params["alpha_x"], m.distribution_params["alpha_y"], m.facet_params["kd"],
+            m.facet_params["eta"]) == (0.6, 0.6, 0.9, 1.5)
     assert cfg.orders == (0, 1, 2, 3)
     assert len(cfg.incidence) >= 3
 
@@ -96,6 +102,36 @@ def test_bad_simulation(simulation, field):
 def test_mirror_rejects_il_parameters():
     with pytest.raises(ConfigError, match=r"^material\.kd = 0\.5: not used by facet 'mirror'"):
         validate(_raw(facet="mirror", eta=None))
+    with pytest.raises(ConfigError) as info:
+        validate(_raw(facet="mirror", eta=None))
+    assert str(info.value) == "material.kd = 0.5: not used by facet 'mirror' (it takes: nothing)"
+
+
+def test_key_of_another_distribution_names_what_this_one_takes():
+    with pytest.raises(ConfigError) as info:
+        validate(_raw(exponent=20.0))
+    assert str(info.value) == ("material.exponent = 20.0: not a parameter of distribution 'beckmann' "
+                               "(it takes: alpha, alpha_x, alpha_y)")
+
+
+def test_unknown_key_lists_the_accepted_keys():
+    with pytest.raises(ConfigError) as info:
+        validate(_raw(roughness=0.2))
+    assert str(info.value) == ("material.roughness = 0.2: unknown key; accepted keys: distribution, alpha, "
+                               "alpha_x, alpha_y, facet, kd, eta")
+
+
+def test_kd_is_required_for_interfaced_lambertian():
+    # no silent default of 0 (a specular dielectric): a one-line error naming material.kd
+    for material in ({"alpha": 0.5}, {"alpha": 0.5, "eta": 1.5}, {"alpha": 0.5, "facet": "interfaced_lambertian"}):
+        with pytest.raises(ConfigError) as info:
+            validate({"material": material})
+        message = str(info.value)
+        assert "\n" not in message
+        assert message.startswith("material.kd is missing: facet 'interfaced_lambertian' needs kd ("), message
+    # eta defaults to 1.5; mirror takes nothing
+    assert validate({"material": {"alpha": 0.5, "kd": 0.3}}).material.facet_params == {"kd": 0.3, "eta": 1.5}
+    assert validate({"material": {"alpha": 0.5, "facet": "mirror"}}).material.facet_params == {}
 
 
 def test_missing_roughness_names_the_field():
@@ -126,3 +162,58 @@ def test_round_trip_through_to_dict():
     cfg = default_config()
     assert cfg.replace(seed=5).seed == 5
     assert cfg.replace(seed=5).material == cfg.material
+
+
+@pytest.mark.parametrize("theta, phi", [(30, 0), (30.0, 45.0), (10, 100), (89.99999999999999, 359.9), (0.1, -45)])
+def test_incident_degrees_are_kept_exactly_as_written(theta, phi):
+    cfg = validate({"material": {"alpha": 0.5, "kd": 0.5}, "incidence": {"theta_i_deg": [theta], "phi_i_deg": phi}})
+    d = cfg.incidence[0]
+    assert d.theta_i_deg == theta and d.phi_i_deg == phi  # e.g. 30 stays 30, not degrees(radians(30))
+    assert d.theta_i == math.radians(theta) and d.phi_i == math.radians(phi)
+    assert cfg.to_dict()["incidence"]["theta_i_deg"] == [theta]
+    assert cfg.to_dict()["incidence"]["phi_i_deg"] == [phi]
+    assert cfg.replace(seed=3).incidence[0].theta_i_deg == theta
+    # math.degrees(math.radians(30)) is 29.999999999999996: the written value is not recomputed
+    assert math.degrees(math.radians(30)) != 30
+    assert validate({"material": {"alpha": 0.5, "kd": 0.5},
+                     "incidence": {"theta_i_deg": [30]}}).incidence[0].theta_i_deg == 30
+
+
+# every registered distribution x facet model, with the material written as a user would
+ALL_MATERIALS = [
+    {"distribution": "beckmann", "alpha": 0.6},
+    {"distribution": "beckmann", "alpha_x": 0.2, "alpha_y": 0.7},
+    {"distribution": "ggx", "alpha": 0.4},
+    {"distribution": "ggx", "alpha_x": 1.0, "alpha_y": 0.01},
+    {"distribution": "phong", "exponent": 20.0},
+    {"distribution": "gaussian", "sigma": 0.35},
+]
+ALL_FACETS = [{"facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}, {"facet": "interfaced_lambertian", "kd": 0.0},
+              {"facet": "interfaced_lambertian", "kd": 1.0, "eta": 1.0}, {"facet": "mirror"}]
+
+
+def test_material_cases_cover_every_registered_component():
+    assert {m["distribution"] for m in ALL_MATERIALS} == set(distributions.NAMES)
+    assert {f["facet"] for f in ALL_FACETS} == set(facets.NAMES)
+
+
+@pytest.mark.parametrize("facet", ALL_FACETS, ids=[str(f) for f in ALL_FACETS])
+@pytest.mark.parametrize("dist", ALL_MATERIALS, ids=[str(m) for m in ALL_MATERIALS])
+def test_material_round_trips_through_its_flat_dict(dist, facet):
+    m = validate({"material": {**dist, **facet}}).material
+    flat = m.to_dict()
+    assert Material.from_dict(flat) == m
+    assert Material.from_dict(Material.from_dict(flat).to_dict()) == m
+    # flat: distribution, its canonical values, facet, its canonical values (what tables store)
+    assert list(flat) == ["distribution", *distributions.value_keys(m.distribution), "facet",
+                          *facets.value_keys(m.facet)]
+    assert set(m.distribution_params) == set(distributions.value_keys(m.distribution))
+    assert set(m.facet_params) == set(facets.value_keys(m.facet))
+    assert m.isotropic == (m.distribution_params.get("alpha_x") == m.distribution_params.get("alpha_y"))
+
+
+def test_material_from_dict_validates():
+    with pytest.raises(ConfigError, match=r"^material\.alpha_x = -1\.0: must be > 0"):
+        Material.from_dict({"distribution": "ggx", "alpha_x": -1.0, "alpha_y": 0.3, "facet": "mirror"})
+    with pytest.raises(ConfigError, match=r"^material\.kd is missing"):
+        Material.from_dict({"distribution": "ggx", "alpha_x": 0.3, "alpha_y": 0.3, "facet": "interfaced_lambertian"})

@@ -15,8 +15,8 @@ import pytest
 from vcavity.config import validate
 from vcavity.facet import fresnel as fr
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
-from vcavity.kernels.sampling import groove_from_disk
-from vcavity.microfacet import DISTRIBUTIONS, beckmann, ggx
+from vcavity.microfacet import beckmann, ggx
+from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
 from vcavity.binning import direction_to_cell
 from vcavity.simulate import Simulation, simulate
@@ -31,11 +31,20 @@ PARAMS = {
 PARAMS["ggx"] = PARAMS["beckmann"]
 
 
-@pytest.mark.parametrize("name", sorted(DISTRIBUTIONS))
+def _params(name, *args):
+    """Parameter array from canonical values in key order (alpha_x, alpha_y / exponent / sigma)."""
+    return distributions.get(name).params_from(dict(zip(distributions.value_keys(name), args)))
+
+
+def test_every_registered_distribution_has_edge_parameters():
+    assert set(PARAMS) == set(distributions.NAMES)
+
+
+@pytest.mark.parametrize("name", distributions.NAMES)
 def test_sampled_normals_unit_and_upper_at_the_ends(name):
-    module = DISTRIBUTIONS[name]
+    module = distributions.get(name)
     for args in PARAMS[name]:
-        params = module.make_params(*args)
+        params = _params(name, *args)
         for u1 in U_ENDS:
             for u2 in U_ENDS:
                 t, c, s = module.sample(u1, u2, params)
@@ -47,7 +56,7 @@ def test_sampled_normals_unit_and_upper_at_the_ends(name):
 
 def test_steepest_ggx_groove_and_huge_tangents():
     # u1 = 1 - 2^-53: r = sqrt(u1/(1 - u1)) ~ 2^26.5; the tangent is finite and the normal unit
-    t, _, _ = ggx.sample(1.0 - 2.0**-53, 0.3, ggx.make_params(10.0, 10.0))
+    t, _, _ = ggx.sample(1.0 - 2.0**-53, 0.3, _params("ggx", 10.0, 10.0))
     assert t == pytest.approx(10.0 * math.sqrt((1.0 - 2.0**-53) * 2.0**53), rel=1e-15)
     for big in (1e150, 1e200, 1e300, MAX_TAN_THETA):
         mx, _, mz = normal_from_slope_angle(big, 1.0, 0.0)
@@ -55,16 +64,18 @@ def test_steepest_ggx_groove_and_huge_tangents():
 
 
 def test_stretched_slope_is_a_drop_in_for_the_kernel_disk_sampler():
-    # Proposed kernel fix (issue 4 report): groove_from_disk's Beckmann/GGX branch can call
-    # stretched_slope(r/sqrt(s), a, b, alpha_x, alpha_y); for ordinary roughness it is
-    # bitwise the same map, beyond it it stays finite.
+    # Kernel fix of the issue 4 report: the GGX disk sampler (ggx.sample_disk, which the
+    # kernel inlines through the registry) calls stretched_slope(r/sqrt(s), a, b, alpha_x,
+    # alpha_y); for ordinary roughness it is bitwise the same map, beyond it it stays finite.
     rng = np.random.default_rng(3)
+    kind = distributions.kind_of("ggx")
     for alpha in ((0.6, 0.6), (0.05, 0.9), (2.0, 0.01), (1e-4, 10.0)):
-        params = ggx.make_params(*alpha)
+        params = _params("ggx", *alpha)
         for a, b in rng.uniform(-0.7, 0.7, (500, 2)):
             s = a * a + b * b
             r_over_sqrt_s = math.sqrt(1.0 - s) / s
-            assert stretched_slope(r_over_sqrt_s, a, b, *alpha) == groove_from_disk(ggx.KIND, a, b, s, params)
+            assert stretched_slope(r_over_sqrt_s, a, b, *alpha) == ggx.sample_disk(a, b, s, params)
+            assert ggx.sample_disk(a, b, s, params) == distributions.sample_disk(kind, a, b, s, params)
 
 
 @pytest.mark.parametrize("alpha", [1e-170, 1e200])
@@ -226,4 +237,4 @@ def test_walk_is_float64_throughout():
     _assert_float64_only(_types_of(kernel.py_func, *recorded["args"]))
     _assert_float64_only(_types_of(fr.fresnel_dielectric.py_func, 0.3, 1.5))
     _assert_float64_only(_types_of(direction_to_cell.py_func, 0.1, 0.2, 0.97, 57))
-    _assert_float64_only(_types_of(beckmann.sample.py_func, 0.3, 0.7, beckmann.make_params(0.1, 0.5)))
+    _assert_float64_only(_types_of(beckmann.sample.py_func, 0.3, 0.7, _params("beckmann", 0.1, 0.5)))

@@ -15,7 +15,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from vcavity.config import validate
-from vcavity.facet import interfaced_lambert
+from vcavity.facet import interfaced_lambertian
 from vcavity.facet.fresnel import (
     emergence_probability,
     fresnel_dielectric,
@@ -25,7 +25,7 @@ from vcavity.facet.fresnel import (
     r_i,
 )
 from vcavity.io.table import open_table, write_table
-from vcavity.microfacet import beckmann, gaussian, ggx, phong
+from vcavity.microfacet import beckmann, gaussian, ggx, phong, registry
 from vcavity.rng import BLOCK_SIZE
 from vcavity.simulate import simulate
 
@@ -51,6 +51,11 @@ def _assert_unit_upper(m):
     assert abs(math.sqrt(mx * mx + my * my + mz * mz) - 1.0) <= 4e-16
 
 
+def _params(module, *args):
+    """Parameter array from canonical values in key order (alpha_x, alpha_y / exponent / sigma)."""
+    return module.params_from(dict(zip(registry.value_keys(module.NAME), args)))
+
+
 def _assert_sample_ok(module, params, u1, u2):
     t, c, s = module.sample(u1, u2, params)
     assert math.isfinite(t) and t >= 0.0
@@ -65,20 +70,20 @@ def _assert_sample_ok(module, params, u1, u2):
 @given(u1=uniform, u2=uniform, alpha_x=positive, alpha_y=positive)
 def test_beckmann_and_ggx_normals_are_unit_and_upper(u1, u2, alpha_x, alpha_y):
     for module in (beckmann, ggx):
-        _assert_sample_ok(module, module.make_params(alpha_x, alpha_y), u1, u2)
+        _assert_sample_ok(module, _params(module, alpha_x, alpha_y), u1, u2)
 
 
 @FAST
 @given(u1=uniform, u2=uniform, exponent=st.one_of(st.floats(0.0, 1e300), st.sampled_from([0.0, 2e8, 1e300])))
 def test_phong_normals_are_unit_and_upper(u1, u2, exponent):
-    _assert_sample_ok(phong, phong.make_params(exponent), u1, u2)
+    _assert_sample_ok(phong, _params(phong, exponent), u1, u2)
 
 
 @settings(deadline=None, max_examples=15)
 @given(sigma=st.one_of(st.floats(1e-300, 1e3), st.sampled_from([1e-300, 1e-160, 1e-100, 1e-4, 2.0, 10.0])),
        u=st.lists(st.tuples(uniform, uniform), min_size=20, max_size=20))
 def test_gaussian_normals_are_unit_and_upper(sigma, u):
-    params = gaussian.make_params(sigma)  # the table build is the slow part: 20 draws per table
+    params = _params(gaussian, sigma)  # the table build is the slow part: 20 draws per table
     assert np.all(np.isfinite(params[5:]))  # the inverse-CDF table (C may overflow to inf)
     for u1, u2 in u:
         _assert_sample_ok(gaussian, params, u1, u2)
@@ -136,7 +141,10 @@ def test_fresnel_and_diffuse_reflectances_continuous_through_eta_one(c, delta):
 @given(eta=eta_outside, c=cosine)
 def test_facet_event_conserves_energy_exactly_when_kd_is_one(eta, c):
     assert emergence_probability(1.0, eta) == 1.0  # nothing absorbed inside the body
-    assert abs(interfaced_lambert.albedo(1.0, eta, c) - 1.0) <= 2.0**-53
+    data = interfaced_lambertian.prepare({"kd": 1.0, "eta": eta})
+    assert data[1] == 1.0  # the event's re-emergence probability
+    f = interfaced_lambertian.reflectance(c, data)  # reflect with F, else re-emerge with a = 1
+    assert abs(f + (1.0 - f) * data[1] - 1.0) <= 2.0**-53
     assert 0.0 <= one_minus_r_i(eta) <= 1.0 and 0.0 <= r_e(eta) <= 1.0  # r_e rounds to 1 from eta ~ 1e17
 
 

@@ -16,7 +16,11 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
+from vcavity.config import validate
+from vcavity.facet import interfaced_lambertian
+from vcavity.facet import registry as facets
 from vcavity.facet.fresnel import emergence_probability, fresnel_dielectric, fresnel_transmittance_array
+from vcavity.microfacet import registry as distributions
 
 _SCRIPT = Path(__file__).resolve().parent.parent / "scripts" / "stress.py"
 
@@ -58,7 +62,7 @@ def test_full_grid_covers_every_axis_of_the_issue():
     ratios = {c.material["alpha_x"] / c.material["alpha_y"] for c in cases if "alpha_x" in c.material}
     assert max(ratios) == pytest.approx(1000.0)
     pairs = {(c.material["distribution"], c.material.get("facet", "interfaced_lambertian")) for c in cases}
-    assert len(pairs) == 8  # all distributions x both facet types
+    assert len(pairs) == len(distributions.NAMES) * len(facets.NAMES)  # all distributions x all facet models (8)
     assert len({(c.name, c.theta_deg, c.phi_deg) for c in cases}) == len(cases)  # no duplicates
 
 
@@ -143,5 +147,59 @@ def test_body_escape_matches_plain_numpy_monte_carlo(mz, g, eta):
     oz = mu * mz - np.sqrt(1.0 - mu * mu) * np.cos(psi) * st
     escape = np.minimum(g, np.clip(2.0 * mz * oz / mu, 0.0, 1.0))
     gl_x, gl_w = np.polynomial.legendre.leggauss(16)
-    exact = stress.body_escape(mz, st, g, eta, gl_x, gl_w)
+    kind, _, data = facets.prepare("interfaced_lambertian", {"kd": 0.5, "eta": eta})
+    exact = stress.body_escape(mz, st, g, kind, data, gl_x, gl_w)
     assert abs(exact - escape.mean()) < 4.5 * escape.std() / math.sqrt(escape.size)
+
+
+def test_grid_helpers_follow_the_registries():
+    # a parameter of the new component replaces BASE's, parameters it does not take are dropped
+    assert stress._mat() == stress.BASE
+    assert stress._mat(eta=3.0) == {**stress.BASE, "eta": 3.0}
+    assert stress._mat(facet="mirror") == {"distribution": "beckmann", "alpha": 0.5, "facet": "mirror"}
+    assert stress._mat(alpha_x=0.5, alpha_y=0.05) == {"distribution": "beckmann", "facet": "interfaced_lambertian",
+                                                      "kd": 0.5, "eta": 1.5, "alpha_x": 0.5, "alpha_y": 0.05}
+    assert stress._mat(distribution="phong", exponent=6.0)["exponent"] == 6.0
+    assert "alpha" not in stress._mat(distribution="gaussian", sigma=0.35)
+    assert stress.DISTS == distributions.NAMES
+    for name in distributions.NAMES:
+        for width, fixed in ((1e-4, stress._tiny(name)), (0.5, stress.roughness_of_width(name, 0.5))):
+            values = validate({"material": {"distribution": name, **fixed, "facet": "mirror"}}).material
+            assert distributions.lobe_width(name, values.distribution_params) == pytest.approx(width, rel=1e-5)
+    assert stress.roughness_of_width("phong", 0.5) == stress.MODERATE["phong"]
+    assert stress.describe(stress._mat(distribution="ggx", alpha=10.0, kd=1.0)) == "ggx a=10 IL kd=1 eta=1.5"
+    assert stress.describe(stress._mat(alpha_x=0.5, alpha_y=0.005, facet="mirror")) == "beckmann a_x=0.5 a_y=0.005 mirror"
+
+
+def test_reemission_and_lossless_facets():
+    def material(**kw):
+        return validate({"material": {"distribution": "ggx", "alpha": 0.3, **kw}}).material
+
+    assert stress.reemission_probability(material(facet="mirror")) == 0.0
+    assert stress.reemission_probability(material(kd=0.0, eta=1.5)) == 0.0
+    for kd, eta in ((1.0, 1.5), (1.0, 1e110), (1.0, 1e300), (0.3, 1.0), (0.5, 1.5)):
+        assert stress.reemission_probability(material(kd=kd, eta=eta)) == emergence_probability(kd, eta)
+        data = interfaced_lambertian.prepare({"kd": kd, "eta": eta})
+        assert stress.reemission_probability(material(kd=kd, eta=eta)) == data[1]  # what the facet event uses
+    assert stress._lossless(material(facet="mirror")) and stress._lossless(material(kd=1.0, eta=1e300))
+    assert not stress._lossless(material(kd=0.999, eta=1.5)) and not stress._lossless(material(kd=0.0, eta=1.5))
+
+
+def test_grid_needs_no_edit_for_a_new_distribution(monkeypatch):
+    # register the Student-t module (tests/microfacet/test_student_t.py) in the Python-level
+    # registry only: the grid, its labels and the roughness helpers come from its declarations
+    from vcavity.microfacet import registry, student_t
+
+    monkeypatch.setattr(registry, "MODULES", registry.MODULES + (student_t,))
+    monkeypatch.setattr(registry, "NAMES", registry.NAMES + (student_t.NAME,))
+    monkeypatch.setattr(registry, "_BY_NAME", {**registry._BY_NAME, student_t.NAME: student_t})
+    cases = stress.build_cases()
+    new = [c for c in cases if c.material["distribution"] == "student_t"]
+    assert {c.material.get("facet", "interfaced_lambertian") for c in new} == set(facets.NAMES)
+    assert any("tiny" in c.name for c in new) and any(c.name.startswith("dist student_t") for c in new)
+    for c in new:
+        m = validate({"material": c.material}).material  # a complete, valid material
+        assert "student_t" in stress.describe(c.material)
+        width = distributions.lobe_width("student_t", m.distribution_params)
+        assert width == pytest.approx(1e-4, rel=1e-5) if "tiny" in c.name else width == pytest.approx(0.5, rel=1e-5)
+    assert len({(c.name, c.theta_deg, c.phi_deg) for c in cases}) == len(cases)

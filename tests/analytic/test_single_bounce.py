@@ -8,10 +8,12 @@ import math
 
 import numpy as np
 import pytest
+from numba import literally, njit
 
 from vcavity.analytic.single_bounce import ModelNotApplicable, SingleBounceModel, flat_body_brdf
 from vcavity.analytic.terms import accurate_transmittance_table, table_transmittance
 from vcavity.config import validate
+from vcavity.facet import registry as facets
 from vcavity.facet.fresnel import fresnel_transmittance
 
 
@@ -225,10 +227,30 @@ def test_flat_and_lambert_limits():
     lambert = SingleBounceModel(material(distribution="beckmann", alpha=1e-3, kd=0.7, eta=1.0))
     for _ in range(10):
         i, o = random_direction(rng, 70), random_direction(rng, 70)
-        flat = flat_body_brdf(i, o[None], 0.7, 1.5)[0]
+        flat = flat_body_brdf(i, o[None], rough.material)[0]
         assert rough.body(i, o[None])[0] == pytest.approx(flat, rel=2e-3)
         assert lambert.brdf(i, o[None])[0] == pytest.approx(0.7 / math.pi, rel=2e-3)
-    assert flat_body_brdf(np.array([0, 0, 1.0]), np.array([[0.6, 0, 0.8]]), 0.7, 1.0)[0] == pytest.approx(0.7 / math.pi)
+        # the flat body term K T(i.n) T(o.n) (IL eq. 4-8): reference form and reciprocity
+        r_i = 1 - (1 - ref_r_e(1.5)) / 1.5**2
+        expected = 0.7 / (math.pi * 1.5**2 * (1 - 0.7 * r_i)) * (1 - ref_fresnel(i[2], 1.5)) * (1 - ref_fresnel(o[2], 1.5))
+        assert flat == pytest.approx(expected, rel=1e-9)
+        assert flat == pytest.approx(flat_body_brdf(o, i[None], rough.material)[0], rel=1e-15)
+    assert flat_body_brdf(np.array([0, 0, 1.0]), np.array([[0.6, 0, 0.8]]), lambert.material)[0] == pytest.approx(0.7 / math.pi)
+    # mirror and specular dielectric facets have no body; below the horizon it is 0
+    for m in (material(distribution="beckmann", alpha=0.3, facet="mirror"),
+              material(distribution="beckmann", alpha=0.3, kd=0.0, eta=1.5)):
+        assert flat_body_brdf(np.array([0, 0, 1.0]), np.array([[0.6, 0, 0.8]]), m)[0] == 0.0
+    assert flat_body_brdf(np.array([0, 0, 1.0]), np.array([[0.6, 0, -0.8]]), lambert.material)[0] == 0.0
+
+
+@njit(cache=True)
+def _table_rows(c, table, facet_kind, facet_data):
+    """table_transmittance over an array of cosines (facet_kind a compile-time constant)."""
+    literally(facet_kind)
+    out = np.empty(c.shape[0])
+    for k in range(c.shape[0]):
+        out[k] = table_transmittance(c[k], table, facet_kind, facet_data)
+    return out
 
 
 def test_transmittance_table():
@@ -236,10 +258,16 @@ def test_transmittance_table():
     rng = np.random.default_rng(4)
     c = np.concatenate([rng.random(3000), [0.0, 1e-12, 0.5, 1.0]])
     for eta in (1.0, 1.0001, 1.01, 1.03, 1.5, 2.5, 10.0, 1e4):
-        table = accurate_transmittance_table(eta)
+        values = {"kd": 0.5, "eta": eta}
+        kind, _, data = facets.prepare("interfaced_lambertian", values)
+        table = accurate_transmittance_table(kind, data, facets.has_specular("interfaced_lambertian", values))
         assert (table.shape[0] > 0) == (eta in (1.03, 1.5, 2.5))
-        worst = max(abs(table_transmittance(x, table, eta) - fresnel_transmittance(x, eta)) for x in c)
+        worst = np.max(np.abs(_table_rows(c, table, kind, data) - np.array([fresnel_transmittance(x, eta) for x in c])))
         assert worst < 1e-11
+    # a mirror transmits nothing: no table, T = 0
+    kind, _, data = facets.prepare("mirror", {})
+    table = accurate_transmittance_table(kind, data, facets.has_specular("mirror", {}))
+    np.testing.assert_array_equal(_table_rows(c, table, kind, data), 0.0)
 
 
 def test_model_validation():

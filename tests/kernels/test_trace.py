@@ -1,43 +1,91 @@
-"""Pieces of the walk: the Fresnel bracketing table and the exactness of its decisions."""
+"""Pieces of the walk (vcavity/kernels/trace.py): the groove sampler the kernel inlines
+for each registered distribution, and one compiled kernel per (distribution, facet model,
+variant) with the documented output layout.
+
+(The Fresnel bracketing table the IL facet event uses is tested with the facet, in
+tests/facet/test_interfaced_lambertian.py.) The two-sample Kolmogorov-Smirnov tests
+reject at p < 1e-3 (false-positive rate 2e-3 per distribution case, fixed seeds).
+"""
+
+import math
 
 import numpy as np
 import pytest
-from numba import njit
+from numba import literally, njit
+from scipy import stats
 
-from vcavity.facet.fresnel import fresnel_dielectric, fresnel_dielectric_array
-from vcavity.kernels.trace import FRESNEL_BINS, _below_fresnel, fresnel_brackets
-
-
-@pytest.mark.parametrize("eta", [1.0 + 1e-9, 1.0001, 1.33, 1.5, 2.5, 10.0, 1000.0, 1e4])
-def test_brackets_contain_fresnel_on_a_fine_grid(eta):
-    brackets = fresnel_brackets(eta)
-    c = np.linspace(0.0, 1.0, 2_000_001)
-    f = fresnel_dielectric_array(c, eta)
-    j = np.minimum((c * FRESNEL_BINS).astype(int), FRESNEL_BINS - 1)
-    assert np.all(brackets[j, 0] <= f) and np.all(f <= brackets[j, 1])
-    # and they are useful: most bins bracket tightly at moderate eta (F is steep only near grazing)
-    if eta < 5:
-        assert np.mean(brackets[:, 1] - brackets[:, 0] < 0.01) > 0.8
+from vcavity.facet import registry as facets
+from vcavity.kernels import trace
+from vcavity.microfacet import registry as distributions
+from vcavity.rng import BLOCK_SIZE
 
 
 @njit(cache=True)
-def _decisions(u, c, eta, nodes):
-    fast = np.empty(u.size, np.bool_)
-    exact = np.empty(u.size, np.bool_)
-    for k in range(u.size):
-        fast[k] = _below_fresnel(u[k], c[k], eta, nodes)
-        exact[k] = u[k] < fresnel_dielectric(c[k], eta)
-    return fast, exact
+def _kernel_grooves(dist_kind, n, seed, params):
+    """n groove normals drawn as the kernel draws them: (tan theta_m, phi_m)."""
+    literally(dist_kind)
+    state = np.uint64(seed)
+    out = np.empty((n, 2))
+    for k in range(n):
+        state, t, c, s = trace._sample_groove(state, dist_kind, params)
+        out[k, 0] = t
+        out[k, 1] = math.atan2(s, c)
+    return out
 
 
-@pytest.mark.parametrize("eta", [1.0 + 1e-6, 1.5, 3.0, 1000.0, 1e4])
-def test_bracketed_decision_equals_exact_decision(eta):
-    rng = np.random.default_rng(5)
-    nodes = fresnel_brackets(eta)
-    assert nodes.shape == (FRESNEL_BINS, 2)
-    c = np.concatenate([rng.uniform(0, 1, 300_000), np.arange(FRESNEL_BINS + 1) / FRESNEL_BINS, [0.0, 1.0]])
-    exact_f = fresnel_dielectric_array(c, eta)
-    # uniforms both random and right at F (within a few ulp), where a wrong bound would show
-    u = np.concatenate([rng.uniform(0, 1, c.size), exact_f, np.nextafter(exact_f, 0), np.nextafter(exact_f, 1)])
-    fast, exact = _decisions(u, np.tile(c, 4), eta, nodes)
-    np.testing.assert_array_equal(fast, exact)
+@njit(cache=True)
+def _module_grooves(dist_kind, u1, u2, params):
+    literally(dist_kind)
+    out = np.empty((u1.shape[0], 2))
+    for k in range(u1.shape[0]):
+        t, c, s = distributions.sample(dist_kind, u1[k], u2[k], params)
+        out[k, 0] = t
+        out[k, 1] = math.atan2(s, c)
+    return out
+
+
+# (name, canonical values): every registered distribution, isotropic and anisotropic
+GROOVE_CASES = [
+    ("beckmann", {"alpha_x": 0.6, "alpha_y": 0.6}), ("beckmann", {"alpha_x": 0.05, "alpha_y": 0.9}),
+    ("ggx", {"alpha_x": 0.3, "alpha_y": 0.3}), ("ggx", {"alpha_x": 2.0, "alpha_y": 0.01}),
+    ("phong", {"exponent": 20.0}), ("phong", {"exponent": 0.0}), ("gaussian", {"sigma": 0.35}),
+]
+
+
+def test_every_registered_distribution_is_covered():
+    assert {name for name, _ in GROOVE_CASES} == set(distributions.NAMES)
+
+
+@pytest.mark.parametrize("name, values", GROOVE_CASES, ids=[f"{n}-{v}" for n, v in GROOVE_CASES])
+def test_kernel_groove_sampler_has_the_distribution_of_sample(name, values):
+    kind, params = distributions.params_from(name, values)
+    n = 100_000
+    grooves = _kernel_grooves(kind, n, 2024, params)
+    assert np.all(np.isfinite(grooves)) and np.all(grooves[:, 0] >= 0.0)
+    rng = np.random.default_rng(7)
+    reference = _module_grooves(kind, rng.random(n), rng.random(n), params)
+    for column in (0, 1):  # tan theta_m and phi_m
+        assert stats.ks_2samp(grooves[:, column], reference[:, column]).pvalue > 1e-3, (name, values, column)
+
+
+def test_one_kernel_per_scene_and_its_output_layout():
+    dist_kind = distributions.kind_of("beckmann")
+    facet_kind, variant, facet_data = facets.prepare("mirror", {})
+    kernel = trace.get_kernel(dist_kind, facet_kind, variant)
+    assert trace.get_kernel(dist_kind, facet_kind, variant) is kernel
+    il_kind, il_variant, _ = facets.prepare("interfaced_lambertian", {"kd": 0.5, "eta": 1.5})
+    assert trace.get_kernel(dist_kind, il_kind, il_variant) is not kernel
+    _, params = distributions.params_from("beckmann", {"alpha_x": 0.4, "alpha_y": 0.4})
+    incident = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
+    n_paths, max_order, resolution, n_slots = BLOCK_SIZE + 100, 2, 5, 2
+    counts, stat = kernel(incident, np.uint64(99), 0, 2, n_paths, params, facet_data, 50, max_order,
+                          resolution, n_slots)
+    assert counts.shape == (n_slots, max_order + 1, resolution * resolution) and counts.dtype == np.int64
+    assert stat.shape == (n_slots, trace.N_STATS) and stat.dtype == np.int64
+    assert stat[:, trace.STAT_ABSORBED].sum() == 0  # mirror facets
+    exits = counts.sum()
+    assert exits + stat[:, [trace.STAT_TRUNCATED, trace.STAT_DEGENERATE]].sum() == n_paths
+    assert stat[:, trace.STAT_MAX_BOUNCES].max() <= 50
+    # no block, no path
+    counts, stat = kernel(incident, np.uint64(99), 0, 0, 0, params, facet_data, 50, max_order, resolution, n_slots)
+    assert counts.sum() == 0 and stat.sum() == 0

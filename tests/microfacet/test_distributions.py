@@ -14,17 +14,34 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate, optimize, stats
 
-from vcavity import microfacet
 from vcavity.microfacet import beckmann, gaussian, ggx, phong
+from vcavity.microfacet import registry
+
+
+def values_of(module, args):
+    """Canonical values (what ``params_from`` takes) from positional arguments, in the
+    order of the distribution's canonical keys (alpha_x, alpha_y / exponent / sigma)."""
+    keys = registry.value_keys(module.NAME)
+    assert len(keys) == len(args), (module.NAME, keys, args)
+    return dict(zip(keys, args))
 
 
 @functools.lru_cache(maxsize=None)
+def cached_params(name, args):
+    """Gaussian tables are costly to build (~0.2 s): build each parameter set once."""
+    module = registry.get(name)
+    return module.params_from(values_of(module, args))
+
+
 def gaussian_params(sigma):
-    """Gaussian tables are costly to build (~0.2 s): build each sigma once."""
-    return gaussian.make_params(sigma)
+    return cached_params("gaussian", (sigma,))
 
 
-# (module, make_params arguments, slope scale (x, y) for quadrature)
+def kind(module):
+    return registry.kind_of(module.NAME)
+
+
+# (module, canonical values in key order, slope scale (x, y) for quadrature)
 CASES = [
     (beckmann, (0.05, 0.05)),
     (beckmann, (0.3, 0.3)),
@@ -45,9 +62,7 @@ CASE_IDS = [f"{mod.NAME}-{'-'.join(map(str, args))}" for mod, args in CASES]
 
 
 def params_of(module, args):
-    if module is gaussian:
-        return gaussian_params(*args)
-    return module.make_params(*args)
+    return cached_params(module.NAME, tuple(args))
 
 
 def slope_scales(module, args):
@@ -86,7 +101,7 @@ def hemisphere_integral_of_pdf_times(module, params, scales, weight_fn, n_rho=40
     psi = (np.arange(n_psi) + 0.5) * (2.0 * math.pi / n_psi)
     rr, pp = np.meshgrid(rho, psi, indexing="ij")
     m, cos_theta = normals_from_slopes(ax * rr * np.cos(pp), ay * rr * np.sin(pp))
-    integrand = module.pdf_many(m, params) * cos_theta**3 * weight_fn(m)
+    integrand = registry.evaluate("pdf", kind(module), m, params) * cos_theta**3 * weight_fn(m)
     integrand = integrand.reshape(rr.shape) * (ax * ay) * rr
     return float(np.sum(integrand.sum(axis=1) * (2.0 * math.pi / n_psi) * w_rho))
 
@@ -135,13 +150,13 @@ def test_sampled_normals_chi_square(module, args):
     n_samples, n_cos, n_phi = 200_000, 20, 16
     # cos-theta bin edges from a pilot sample with another seed: independent of the data
     pilot_rng = np.random.default_rng(11)
-    pilot = module.sample_normal_many(pilot_rng.random(20_000), pilot_rng.random(20_000), params)
+    pilot = registry.sample_normals(kind(module), pilot_rng.random(20_000), pilot_rng.random(20_000), params)
     inner = np.quantile(pilot[:, 2], np.linspace(0.0, 1.0, n_cos + 1)[1:-1])
     cos_edges = np.concatenate(([0.0], inner, [1.0]))
     phi_edges = np.linspace(-math.pi, math.pi, n_phi + 1)
 
     rng = np.random.default_rng(12345)
-    m = module.sample_normal_many(rng.random(n_samples), rng.random(n_samples), params)
+    m = registry.sample_normals(kind(module), rng.random(n_samples), rng.random(n_samples), params)
     counts, _, _ = np.histogram2d(m[:, 2], np.arctan2(m[:, 1], m[:, 0]), [cos_edges, phi_edges])
 
     # expected: int over the bin of pdf(m) dc dphi (dw = dc dphi), by Gauss-Legendre in
@@ -160,7 +175,8 @@ def test_sampled_normals_chi_square(module, args):
             phi, wp = gauss_legendre(phi_edges[j], phi_edges[j + 1], 24)
             tt, pp = np.meshgrid(t, phi, indexing="ij")
             mm, _ = normals_from_slopes(-tt * np.cos(pp), -tt * np.sin(pp))
-            prob[i, j] = np.sum(module.pdf_many(mm, params).reshape(tt.shape) * np.outer(wc, wp))
+            prob[i, j] = np.sum(registry.evaluate("pdf", kind(module), mm, params).reshape(tt.shape)
+                                * np.outer(wc, wp))
     assert abs(prob.sum() - 1.0) < 1e-6
     assert chi_square_pvalue(counts.ravel(), n_samples * prob.ravel()) > 1e-3
 
@@ -195,17 +211,23 @@ def test_sample_edge_uniforms(module, args):
 uniform01 = st.floats(0.0, 1.0, exclude_max=True)
 alpha = st.floats(1e-3, 3.0)
 PARAM_STRATEGIES = {
-    "beckmann": st.tuples(alpha, alpha).map(lambda a: beckmann.make_params(*a)),
-    "ggx": st.tuples(alpha, alpha).map(lambda a: ggx.make_params(*a)),
-    "phong": st.floats(0.0, 1e5).map(phong.make_params),
+    "beckmann": st.tuples(alpha, alpha).map(lambda a: beckmann.params_from({"alpha_x": a[0], "alpha_y": a[1]})),
+    "ggx": st.tuples(alpha, alpha).map(lambda a: ggx.params_from({"alpha_x": a[0], "alpha_y": a[1]})),
+    "phong": st.floats(0.0, 1e5).map(lambda e: phong.params_from({"exponent": e})),
     "gaussian": st.sampled_from([1e-3, 0.05, 0.35, 1.0, 2.0]).map(gaussian_params),
 }
+
+
+def test_every_registered_distribution_has_test_cases():
+    assert {mod.NAME for mod, _ in CASES} == set(registry.NAMES)
+    assert set(PARAM_STRATEGIES) == set(registry.NAMES)
+    assert {name for name, _ in DISK_CASES} == set(registry.NAMES)
 
 
 @pytest.mark.parametrize("name", sorted(PARAM_STRATEGIES))
 def test_sample_property(name):
     """Finite tan >= 0, unit azimuth, unit normal, and tan non-decreasing in u1."""
-    module = microfacet.get(name)
+    module = registry.get(name)
 
     @settings(deadline=None, max_examples=300)
     @given(u1=uniform01, u1b=uniform01, u2=uniform01, params=PARAM_STRATEGIES[name])
@@ -252,23 +274,69 @@ def test_gaussian_inverse_cdf_accuracy(sigma):
     assert abs(params[1] * inv_c - 1.0) < 1e-10
 
 
-def test_registry():
-    assert [mod.KIND for mod in microfacet.BY_KIND] == [0, 1, 2, 3]
-    assert [mod.NAME for mod in microfacet.BY_KIND] == ["beckmann", "ggx", "phong", "gaussian"]
-    for name, mod in microfacet.DISTRIBUTIONS.items():
-        assert microfacet.get(name) is mod and microfacet.get(name.upper()) is mod
-    assert [mod.HAS_EXACT_SMITH for mod in microfacet.BY_KIND] == [True, True, False, False]
-    with pytest.raises(KeyError, match="known"):
-        microfacet.get("cauchy")
-
-
 @pytest.mark.parametrize(("module", "args"), CASES, ids=CASE_IDS)
 def test_D_pdf_consistency_and_horizon(module, args):
-    """pdf = D (m.n); D = 0 below the horizon; vectorised = scalar."""
+    """pdf = D (m.n); D = 0 below the horizon; vectorised = scalar = registry dispatch."""
     params = params_of(module, args)
+    k = kind(module)
     rng = np.random.default_rng(3)
-    m = module.sample_normal_many(rng.random(200), rng.random(200), params)
-    d = module.D_many(m, params)
-    np.testing.assert_allclose(module.pdf_many(m, params), d * m[:, 2], rtol=1e-13)
+    u1, u2 = rng.random(200), rng.random(200)
+    m = registry.sample_normals(k, u1, u2, params)
+    np.testing.assert_array_equal(m, [module.sample_normal(a, b, params) for a, b in zip(u1, u2)])
+    d = registry.evaluate("D", k, m, params)
+    np.testing.assert_allclose(registry.evaluate("pdf", k, m, params), d * m[:, 2], rtol=1e-13)
     np.testing.assert_array_equal(d, [module.D(*row, params) for row in m])
+    np.testing.assert_array_equal(d, [registry.D(k, *row, params) for row in m])
+    np.testing.assert_array_equal(registry.evaluate("pdf", k, m, params), [module.pdf(*row, params) for row in m])
+    lam = registry.evaluate("smith_lambda", k, m, params)
+    np.testing.assert_array_equal(lam, [module.smith_lambda(*row, params) for row in m])
     assert module.D(0.6, 0.0, -0.8, params) == 0.0 and module.pdf(1.0, 0.0, 0.0, params) == 0.0
+
+
+# ------------------------------------------------------- the kernel's disk-point sampler
+
+# (name, canonical values in key order): ordinary, anisotropic and edge parameters
+DISK_CASES = [
+    ("beckmann", (0.6, 0.6)), ("beckmann", (0.05, 0.9)), ("ggx", (0.3, 0.3)), ("ggx", (2.0, 0.01)),
+    ("phong", (20.0,)), ("phong", (0.0,)), ("gaussian", (0.35,)),
+]
+DISK_IDS = [f"{name}-{'-'.join(map(str, args))}" for name, args in DISK_CASES]
+
+
+@pytest.mark.parametrize("name, args", DISK_CASES, ids=DISK_IDS)
+def test_sample_disk_is_sample_with_u1_one_minus_s(name, args):
+    """sample_disk(a, b, s) = sample(u1 = 1 - s, u2) for the disk point (a, b) at azimuth 2 pi u2."""
+    module = registry.get(name)
+    params = params_of(module, args)
+    k = registry.kind_of(name)
+    rng = np.random.default_rng(99)
+    # u1 >= 0.5 so that s = 1 - u1 is exact (Sterbenz); plus the lower half separately
+    for u1, u2 in zip(np.concatenate([rng.uniform(0.5, 1.0, 2000), rng.uniform(1e-9, 0.5, 2000)]),
+                      rng.uniform(0.0, 1.0, 4000)):
+        s = 1.0 - u1
+        a, b = math.sqrt(s) * math.cos(2 * math.pi * u2), math.sqrt(s) * math.sin(2 * math.pi * u2)
+        t_ref, c_ref, s_ref = module.sample(u1, u2, params)
+        t, c, sn = module.sample_disk(a, b, a * a + b * b, params)
+        assert registry.sample_disk(k, a, b, a * a + b * b, params) == (t, c, sn)
+        assert t == pytest.approx(t_ref, rel=1e-9, abs=1e-12)
+        if t_ref > 1e-12:
+            assert c == pytest.approx(c_ref, abs=1e-9)
+            assert sn == pytest.approx(s_ref, abs=1e-9)
+        assert abs(math.hypot(c, sn) - 1.0) < 1e-14
+
+
+@pytest.mark.parametrize("name, args", DISK_CASES, ids=DISK_IDS)
+def test_sample_disk_at_extreme_disk_points_is_finite(name, args):
+    module = registry.get(name)
+    params = params_of(module, args)
+    # the kernel's disk points are 2u - 1 with 53-bit u: |a|, |b| are 0 or >= 2^-52, and
+    # the centre (s = 0) and the rim (s >= 1) are rejected
+    tiny, edge = 2.0**-52, 1.0 - 2.0**-52
+    for a, b in [(tiny, 0.0), (0.0, -tiny), (tiny, tiny), (edge, 0.0), (0.0, -edge),
+                 (0.7071067811865475, 0.7071067811865475)]:
+        s = a * a + b * b
+        if not 0.0 < s < 1.0:
+            continue
+        t, c, sn = module.sample_disk(a, b, s, params)
+        assert math.isfinite(t) and t >= 0.0
+        assert abs(math.hypot(c, sn) - 1.0) < 1e-12

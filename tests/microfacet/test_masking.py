@@ -8,9 +8,38 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 from scipy import special
 
-from vcavity.microfacet import beckmann, common, gaussian, ggx, phong
+from vcavity.microfacet import beckmann, common, gaussian, ggx, phong, registry
+
+
+def params_of(module, *args):
+    """Parameter array from the canonical values given in key order (alpha_x, alpha_y / ...)."""
+    return module.params_from(dict(zip(registry.value_keys(module.NAME), args)))
+
+
+def rows(op, module, vectors, params):
+    """``op`` ("D", "smith_lambda") of ``module`` over the rows of an (N, 3) array."""
+    return registry.evaluate(op, registry.kind_of(module.NAME), vectors, params)
+
+
+@njit(cache=True)
+def g1_vcavity_rows(v, m):
+    """common.g1_vcavity over the rows of two (N, 3) arrays."""
+    out = np.empty(m.shape[0])
+    for k in range(m.shape[0]):
+        out[k] = common.g1_vcavity(v[k, 0], v[k, 1], v[k, 2], m[k, 0], m[k, 1], m[k, 2])
+    return out
+
+
+@njit(cache=True)
+def g2_vcavity_rows(i, o, m):
+    """common.g2_vcavity over the rows of three (N, 3) arrays."""
+    out = np.empty(m.shape[0])
+    for k in range(m.shape[0]):
+        out[k] = common.g2_vcavity(i[k, 0], i[k, 1], i[k, 2], o[k, 0], o[k, 1], o[k, 2], m[k, 0], m[k, 1], m[k, 2])
+    return out
 
 
 def direction(theta, phi):
@@ -42,9 +71,9 @@ def lambda_reference(name, v, ax, ay):
     ("ax", "ay"), [(0.05, 0.05), (0.3, 0.3), (0.2, 0.6), (1.0, 0.4), (2.0, 2.0)]
 )
 def test_smith_lambda_against_reference(module, ax, ay):
-    params = module.make_params(ax, ay)
+    params = params_of(module, ax, ay)
     v = random_directions(np.random.default_rng(5), 2000, max_theta=math.radians(89.9))
-    got = module.smith_lambda_many(v, params)
+    got = rows("smith_lambda", module, v, params)
     ref = lambda_reference(module.NAME, v, ax, ay)
     # the textbook forms (erf(a) - 1, sqrt(1 + b) - 1) cancel for small Lambda: absolute
     # error ~1e-16 there, which is what atol allows; the implementation avoids it
@@ -54,7 +83,7 @@ def test_smith_lambda_against_reference(module, ax, ay):
 
 @pytest.mark.parametrize("module", [beckmann, ggx, phong, gaussian])
 def test_smith_lambda_edges(module):
-    params = module.make_params(0.3, 0.5) if module in (beckmann, ggx) else module.make_params(0.3)
+    params = params_of(module, 0.3, 0.5) if module in (beckmann, ggx) else params_of(module, 0.3)
     assert module.smith_lambda(0.0, 0.0, 1.0, params) == 0.0
     assert module.smith_lambda(1e-30, 0.0, 1.0, params) == 0.0  # vz rounds to 1
     for vz in [0.0, -0.3, 5e-324, 1e-200, 1e-12]:
@@ -69,11 +98,11 @@ def test_smith_lambda_edges(module):
 @pytest.mark.parametrize(("ax", "ay"), [(0.3, 0.3), (0.2, 0.6)])
 def test_walter_fit_within_stated_error(ax, ay):
     """W eq. 27: G1 of the rational fit within 0.35 % of exact (checked at < 0.4 %)."""
-    params = beckmann.make_params(ax, ay)
+    params = params_of(beckmann, ax, ay)
     theta = np.linspace(1e-3, math.pi / 2 - 1e-6, 4000)
     for phi in [0.0, 0.7, math.pi / 2]:
         v = np.array([direction(t, phi) for t in theta])
-        g_exact = 1.0 / (1.0 + beckmann.smith_lambda_many(v, params))
+        g_exact = 1.0 / (1.0 + rows("smith_lambda", beckmann, v, params))
         lam_fit = np.array([beckmann.smith_lambda_walter_fit(*row, params) for row in v])
         g_fit = 1.0 / (1.0 + lam_fit)
         assert np.max(np.abs(g_fit / g_exact - 1.0)) < 4e-3
@@ -101,7 +130,7 @@ def positive_projected_area(module, params, v, ax, ay, n=400):
         sx, sy = ax * rho[:, None] * np.cos(psi), ay * rho[:, None] * np.sin(psi)
         inv = 1.0 / np.sqrt(1.0 + sx * sx + sy * sy)
         m = np.stack([-sx * inv, -sy * inv, inv], axis=-1).reshape(-1, 3)
-        d = module.D_many(m, params).reshape(sx.shape)
+        d = rows("D", module, m, params).reshape(sx.shape)
         positive = np.maximum(v[2] - k * rho[:, None] * np.cos(dpsi), 0.0)
         f = d * inv**4 * positive * ax * ay * rho[:, None]
         return np.sum(np.sum(f * wt, axis=1) * (hi - lo) * w_rho)
@@ -122,7 +151,7 @@ VIEW_DIRECTIONS = [(0.3, 0.2), (1.0, 1.1), (math.radians(85.0), -0.6), (math.rad
 @pytest.mark.parametrize(("ax", "ay"), [(0.05, 0.05), (0.3, 0.3), (0.2, 0.6), (1.0, 1.0)])
 def test_smith_identity(module, ax, ay):
     """int G1_S(v,m) max(0, v.m) D(m) dw = v.n (H eq. 38/43), G1_S = 1/(1 + Lambda(v))."""
-    params = module.make_params(ax, ay)
+    params = params_of(module, ax, ay)
     for theta_v, phi_v in VIEW_DIRECTIONS:
         v = direction(theta_v, phi_v)
         area = positive_projected_area(module, params, v, ax, ay)
@@ -135,13 +164,13 @@ def test_phong_lambda_is_walter_approximation(exponent, bound):
     """Phong Lambda (W sec. 5.2) = Beckmann Lambda at alpha_b = sqrt(2/(alpha_p+2)), and its
     G1 error against the exact Smith Lambda (numerical, H eq. 38/43) stays within the
     accuracy documented in vcavity/microfacet/phong.py."""
-    params = phong.make_params(exponent)
+    params = params_of(phong, exponent)
     alpha_b = math.sqrt(2.0 / (exponent + 2.0))
     worst = 0.0
     for theta_v in np.radians([10.0, 30.0, 50.0, 65.0, 75.0, 82.0, 86.0, 89.0]):
         v = direction(theta_v, 0.4)
         lam = phong.smith_lambda(*v, params)
-        lam_beckmann = beckmann.smith_lambda(*v, beckmann.make_params(alpha_b, alpha_b))
+        lam_beckmann = beckmann.smith_lambda(*v, params_of(beckmann, alpha_b, alpha_b))
         assert lam == pytest.approx(lam_beckmann, rel=1e-9, abs=1e-300)
         exact = positive_projected_area(phong, params, v, alpha_b, alpha_b) / v[2] - 1.0
         worst = max(worst, abs((1.0 + exact) / (1.0 + lam) - 1.0))
@@ -153,7 +182,7 @@ def test_gaussian_smith_lambda_diverges():
     area truncated at cos theta_m = eps grows like A ln(1/eps) with
     A = 2 C sin(theta_v) exp(-pi^2/(8 sigma^2)): Lambda = inf is the exact answer."""
     sigma, theta_v = 1.0, math.radians(60.0)
-    params = gaussian.make_params(sigma)
+    params = params_of(gaussian, sigma)
     v = direction(theta_v, 0.0)
 
     def truncated_area(eps):
@@ -166,7 +195,7 @@ def test_gaussian_smith_lambda_diverges():
         phi0 = np.arccos(np.clip(-c / np.maximum(s, 1e-300), -1.0, 1.0))
         phi_int = np.where(s > 0, 2.0 * (s * np.sin(phi0) + c * phi0), 2.0 * math.pi * c)
         m = np.stack([np.sin(theta), 0.0 * theta, np.cos(theta)], axis=1)
-        d = gaussian.D_many(m, params)
+        d = rows("D", gaussian, m, params)
         integrand = d * np.sin(theta) * phi_int / np.tan(np.maximum(theta, 1e-300))
         return np.sum(integrand * 0.5 * w * math.log(1.0 / eps))
 
@@ -191,13 +220,13 @@ def test_g1_g2_vcavity_against_reference():
     v = random_directions(rng, 5000, max_theta=math.pi)  # includes v below the horizon
     o = random_directions(rng, 5000)
     m = random_directions(rng, 5000)
-    g = common.g1_vcavity_many(v, m)
+    g = g1_vcavity_rows(v, m)
     np.testing.assert_allclose(g, g1_vcavity_reference(v, m), rtol=1e-14, atol=0)
     assert np.all((g >= 0.0) & (g <= 1.0))
     assert np.all(g[np.sum(v * m, axis=1) <= 0.0] == 0.0)
     assert np.any(g == 1.0) and np.any((g > 0.0) & (g < 1.0))
-    g2 = common.g2_vcavity_many(v, o, m)
-    np.testing.assert_array_equal(g2, np.minimum(g, common.g1_vcavity_many(o, m)))
+    g2 = g2_vcavity_rows(v, o, m)
+    np.testing.assert_array_equal(g2, np.minimum(g, g1_vcavity_rows(o, m)))
     assert common.g1_vcavity(*m[0], *m[0]) == 1.0  # a facet seen head-on is visible
     for theta_v in np.radians([10.0, 45.0, 70.0, 80.0, 89.0]):
         v1 = direction(theta_v, 0.3)
@@ -236,10 +265,10 @@ def weak_furnace(module, params, o, g1_kind, n_u=1200, n_phi=2400):
     h = i + o
     h /= np.linalg.norm(h, axis=1)[:, None]
     if g1_kind == "vcavity":
-        g1 = common.g1_vcavity_many(np.broadcast_to(o, h.shape), h)
+        g1 = g1_vcavity_rows(np.broadcast_to(o, h.shape), h)
     else:
         g1 = common.g1_smith(module.smith_lambda(*o, params)) * (h @ o > 0.0)
-    f = g1 * module.D_many(h, params) / (4.0 * abs(o[2]))
+    f = g1 * rows("D", module, h, params) / (4.0 * abs(o[2]))
     return f.sum() * (2.0 / n_u) * (2.0 * math.pi / n_phi)
 
 
@@ -255,7 +284,7 @@ def test_weak_white_furnace(module, ax, ay, g1_kind, theta_o_deg):
 
     (The 1200 x 2400 grid reaches about 2e-4 at 85 deg, 5e-6 at 60 deg.)"""
     o = direction(math.radians(theta_o_deg), 0.5)
-    value = weak_furnace(module, module.make_params(ax, ay), o, g1_kind)
+    value = weak_furnace(module, params_of(module, ax, ay), o, g1_kind)
     assert value == pytest.approx(1.0, abs=1e-3)
 
 
@@ -266,5 +295,5 @@ def test_weak_white_furnace(module, ax, ay, g1_kind, theta_o_deg):
 def test_weak_white_furnace_more_directions(module, ax, ay, g1_kind, theta_o_deg):
     """H eq. 36 = 1 within 1e-3 at more directions, on a finer grid."""
     o = direction(math.radians(theta_o_deg), 1.1)
-    value = weak_furnace(module, module.make_params(ax, ay), o, g1_kind, n_u=2000, n_phi=4000)
+    value = weak_furnace(module, params_of(module, ax, ay), o, g1_kind, n_u=2000, n_phi=4000)
     assert value == pytest.approx(1.0, abs=1e-3)

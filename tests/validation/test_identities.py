@@ -14,6 +14,7 @@ import math
 
 import numpy as np
 import pytest
+from numba import njit
 from scipy import integrate
 
 from vcavity.analytic.albedo import lambertian_normal_f1_albedo, specular_albedo
@@ -21,27 +22,35 @@ from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
 from vcavity.analytic.terms import MASKING_CODES  # noqa: F401  (masking codes documented there)
 from vcavity.config import validate
 from vcavity.facet.fresnel import fresnel_dielectric, r_e
-from vcavity.microfacet import DISTRIBUTIONS, common
-from vcavity.simulate import distribution_params, incident_vector, simulate
+from vcavity.microfacet import common
+from vcavity.microfacet import registry as distributions
+from vcavity.simulate import Scene, incident_vector, simulate
 
 
 def material(**kw):
     return validate({"material": kw}).material
 
 
-def g1_of(masking, module, params, o, h):
+@njit(cache=True)
+def g1_vcavity_rows(o, h):
+    """The project's V-cavity G1 (H eq. 49) of one direction o over the rows of h."""
+    out = np.empty(h.shape[0])
+    for k in range(h.shape[0]):
+        out[k] = common.g1_vcavity(o[0], o[1], o[2], h[k, 0], h[k, 1], h[k, 2])
+    return out
+
+
+def g1_of(masking, kind, params, o, h):
     """G1(o, h) for rows h: V-cavity (H eq. 49) or Smith (H eq. 43) from the project."""
-    o_rows = np.ascontiguousarray(np.broadcast_to(o, h.shape))
     if masking == "vcavity":
-        return common.g1_vcavity_many(o_rows, np.ascontiguousarray(h))
-    lam = module.smith_lambda_many(o_rows[:1], params)[0]
+        return g1_vcavity_rows(np.ascontiguousarray(o, dtype=np.float64), np.ascontiguousarray(h))
+    lam = distributions.evaluate("smith_lambda", kind, o, params)[0]
     return np.where(h @ o > 0, 1.0 / (1.0 + lam), 0.0)
 
 
 def furnace_by_incident_grid(masking, dist, alpha_x, alpha_y, o, n_theta=500, n_phi=1000):
     """H eq. 36 as in H appendix C: midpoint grid over the whole sphere of i."""
-    module = DISTRIBUTIONS[dist]
-    params = module.make_params(alpha_x, alpha_y)
+    kind, params = distributions.params_from(dist, {"alpha_x": alpha_x, "alpha_y": alpha_y})
     theta = (np.arange(n_theta) + 0.5) * (math.pi / n_theta)
     phi = (np.arange(n_phi) + 0.5) * (2 * math.pi / n_phi)
     total = 0.0
@@ -50,8 +59,8 @@ def furnace_by_incident_grid(masking, dist, alpha_x, alpha_y, o, n_theta=500, n_
         i = np.stack([np.sin(tt) * np.cos(pp), np.sin(tt) * np.sin(pp), np.cos(tt)], -1).reshape(-1, 3)
         h = i + o
         h /= np.linalg.norm(h, axis=1)[:, None]
-        d = module.D_many(np.ascontiguousarray(h), params)
-        g = g1_of(masking, module, params, o, h)
+        d = distributions.evaluate("D", kind, h, params)
+        g = g1_of(masking, kind, params, o, h)
         total += np.sum(g * d / (4 * abs(o[2])) * np.sin(tt).ravel())
     return total * (math.pi / n_theta) * (2 * math.pi / n_phi)
 
@@ -59,15 +68,14 @@ def furnace_by_incident_grid(masking, dist, alpha_x, alpha_y, o, n_theta=500, n_
 def furnace_by_half_vector(masking, dist, alpha_x, alpha_y, o, n=200):
     """H eq. 36 with dω_i = 4 (o.h) dω_h: ∫ G1(o,h) D(h) (o.h)/|o.n| dω_h over the
     sampling map of p(h) = D(h)(h.n) (Gauss-Legendre in t, u1 = 1 - (1-t)^2)."""
-    module = DISTRIBUTIONS[dist]
-    params = module.make_params(alpha_x, alpha_y)
+    kind, params = distributions.params_from(dist, {"alpha_x": alpha_x, "alpha_y": alpha_y})
     t, w = _t_rule(n)
     u1 = np.repeat(1 - (1 - t) ** 2, 2 * n)
     weight = np.repeat(2 * (1 - t) * w, 2 * n) / (2 * n)
     u2 = np.tile((np.arange(2 * n) + 0.5) / (2 * n), n)
-    h = module.sample_normal_many(u1, u2, params)
+    h = distributions.sample_normals(kind, u1, u2, params)
     oh = h @ o
-    g = g1_of(masking, module, params, o, h)
+    g = g1_of(masking, kind, params, o, h)
     return float(np.sum(weight * np.where(oh > 0, g * oh / (abs(o[2]) * h[:, 2]), 0.0)))
 
 
@@ -134,8 +142,14 @@ def test_simulated_specular_f1_albedo_matches_half_vector_integral(mat, theta_de
     assert abs(_f1_albedo_z(mat, theta_deg, exact, 1_000_000, seed=6)) < 4.0
 
 
-def test_distribution_params_roundtrip():
-    # the analytic models and the simulator use the same parameter arrays
-    kind, params = distribution_params(material(distribution="ggx", alpha_x=0.2, alpha_y=0.4, kd=0.5, eta=1.5))
-    model = SingleBounceModel(material(distribution="ggx", alpha_x=0.2, alpha_y=0.4, kd=0.5, eta=1.5))
-    assert model.kind == kind and np.array_equal(model.params, params)
+@pytest.mark.parametrize("mat", [
+    {"distribution": "ggx", "alpha_x": 0.2, "alpha_y": 0.4, "kd": 0.5, "eta": 1.5},
+    {"distribution": "gaussian", "sigma": 0.3, "kd": 0.0, "eta": 2.0},
+    {"distribution": "phong", "exponent": 12.0, "facet": "mirror"},
+])
+def test_distribution_params_roundtrip(mat):
+    # the analytic models and the simulator use the same parameter arrays and facet data
+    scene = Scene.of(material(**mat))
+    model = SingleBounceModel(material(**mat))
+    assert model.kind == scene.dist_kind and np.array_equal(model.params, scene.params)
+    assert model.facet_kind == scene.facet_kind and np.array_equal(model.facet_data, scene.facet_data)
