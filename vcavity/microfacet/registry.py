@@ -51,6 +51,7 @@ DISTRIBUTION_MODULES = (
     "ggx",
     "phong",
     "gaussian",
+    "student_t",
 )
 
 MODULES = tuple(importlib.import_module(f"vcavity.microfacet.{name}") for name in DISTRIBUTION_MODULES)
