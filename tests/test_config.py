@@ -187,6 +187,7 @@ ALL_MATERIALS = [
     {"distribution": "ggx", "alpha_x": 1.0, "alpha_y": 0.01},
     {"distribution": "phong", "exponent": 20.0},
     {"distribution": "gaussian", "sigma": 0.35},
+    {"distribution": "student_t", "alpha_x": 0.3, "alpha_y": 0.5, "gamma": 2.5},
 ]
 ALL_FACETS = [{"facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}, {"facet": "interfaced_lambertian", "kd": 0.0},
               {"facet": "interfaced_lambertian", "kd": 1.0, "eta": 1.0}, {"facet": "mirror"}]

@@ -29,6 +29,7 @@ PARAMS = {
     "gaussian": [(s,) for s in (1e-300, 1e-160, 1e-100, 1e-4, 0.35, 2.0, 10.0, 1e3)],
 }
 PARAMS["ggx"] = PARAMS["beckmann"]
+PARAMS["student_t"] = [(a, b, g) for a, b in PARAMS["beckmann"][::3] for g in (1.5 + 1e-12, 2.0, 1e6)]
 
 
 def _params(name, *args):

@@ -80,8 +80,8 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
         exec("\n".join(body) + "\n", scope)
         return scope["call"]
 
-    scope = {"modules": modules, "resolve": resolve}
-    exec(f"def {op}(kind, {args}):\n    return modules[kind].{op}({args})\n"
+    scope = {"modules": modules, "resolve": resolve, "check_kind": check_kind, "owner": f"{owner}.{op}"}
+    exec(f"def {op}(kind, {args}):\n    return modules[check_kind(modules, kind, owner)].{op}({args})\n"
          f"def typer(kind, {args}):\n    return resolve(kind)\n", scope)
     function = scope[op]
     function.__doc__ = (f"``modules[kind].{op}({args})`` of {owner}; in jitted code ``kind`` must be a "

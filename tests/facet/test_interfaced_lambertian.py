@@ -183,12 +183,27 @@ def test_body_factor_formula_and_limits():
         factor = il.body_factor({"kd": kd, "eta": eta})
         assert factor == pytest.approx(kd / (math.pi * eta * eta * (1.0 - kd * r_i(eta))), rel=1e-13)
         assert factor == pytest.approx(kd / (math.pi * eta * eta * ((1.0 - kd) + kd * one_minus_r_i(eta))),
-                                       rel=1e-15)
+                                       rel=1e-14)
         # eta = 1: Lambertian facet kd/pi (physics.md sec. 4 and 7, flat limit); T = 1
         assert il.body_factor({"kd": kd, "eta": 1.0}) == pytest.approx(kd / math.pi, rel=1e-15)
         assert il.transmittance(rng.uniform(0.0, 1.0), data_of(kd, 1.0)) == 1.0
         assert il.body_factor({"kd": 0.0, "eta": eta}) == 0.0
     assert il.body_factor({"kd": 0.0, "eta": 1.0}) == 0.0
+
+
+@pytest.mark.parametrize("eta", [1e50, 1e108, 1e120, 1e154, 1e200, 1e300, 1.7e308])
+def test_body_factor_is_finite_at_huge_eta(eta):
+    """1 - r_i underflows from eta ~ 1e108 and eta^2 overflows from ~1.3e154: the factor
+    stays finite, with the large-eta limits 0 (kd < 1: ~kd/(pi eta^2 (1 - kd))) and
+    3 eta/(16 pi) (kd = 1: 1 - r_e ~ 16/(3 eta), IL eq. 10 asymptotics)."""
+    for kd in (0.3, 0.999, 1.0):
+        factor = il.body_factor({"kd": kd, "eta": eta})
+        assert math.isfinite(factor) and factor >= 0.0, (kd, factor)
+        if kd == 1.0:
+            assert factor == pytest.approx(3.0 / (16.0 * math.pi) * eta, rel=1e-6)
+        else:
+            expected = kd / (math.pi * (1.0 - kd)) / eta / eta  # underflows to 0 where it must
+            assert factor == pytest.approx(expected, rel=1e-6, abs=1e-300)
 
 
 def test_albedo_of_flat_facet():

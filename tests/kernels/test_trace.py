@@ -49,6 +49,7 @@ GROOVE_CASES = [
     ("beckmann", {"alpha_x": 0.6, "alpha_y": 0.6}), ("beckmann", {"alpha_x": 0.05, "alpha_y": 0.9}),
     ("ggx", {"alpha_x": 0.3, "alpha_y": 0.3}), ("ggx", {"alpha_x": 2.0, "alpha_y": 0.01}),
     ("phong", {"exponent": 20.0}), ("phong", {"exponent": 0.0}), ("gaussian", {"sigma": 0.35}),
+    ("student_t", {"alpha_x": 0.5, "alpha_y": 0.2, "gamma": 1.7}),
 ]
 
 

@@ -14,7 +14,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy import integrate, optimize, stats
 
-from vcavity.microfacet import beckmann, gaussian, ggx, phong
+from vcavity.microfacet import beckmann, gaussian, ggx, phong, student_t
 from vcavity.microfacet import registry
 
 
@@ -57,6 +57,9 @@ CASES = [
     (gaussian, (0.1,)),
     (gaussian, (0.35,)),
     (gaussian, (1.0,)),
+    (student_t, (0.3, 0.3, 1.8)),
+    (student_t, (0.2, 0.6, 4.0)),
+    (student_t, (0.8, 0.8, 30.0)),
 ]
 CASE_IDS = [f"{mod.NAME}-{'-'.join(map(str, args))}" for mod, args in CASES]
 
@@ -67,8 +70,8 @@ def params_of(module, args):
 
 def slope_scales(module, args):
     """Typical slope widths (stretching of H sec. 5), used to place quadrature nodes."""
-    if module in (beckmann, ggx):
-        return args
+    if module in (beckmann, ggx, student_t):
+        return args[:2]
     if module is phong:
         scale = math.sqrt(2.0 / (args[0] + 2.0))  # W: similar to Beckmann of this alpha
         return scale, scale
@@ -215,6 +218,8 @@ PARAM_STRATEGIES = {
     "ggx": st.tuples(alpha, alpha).map(lambda a: ggx.params_from({"alpha_x": a[0], "alpha_y": a[1]})),
     "phong": st.floats(0.0, 1e5).map(lambda e: phong.params_from({"exponent": e})),
     "gaussian": st.sampled_from([1e-3, 0.05, 0.35, 1.0, 2.0]).map(gaussian_params),
+    "student_t": st.tuples(alpha, alpha, st.floats(1.5 + 1e-9, 1e6)).map(
+        lambda a: student_t.params_from({"alpha_x": a[0], "alpha_y": a[1], "gamma": a[2]})),
 }
 
 
@@ -299,6 +304,7 @@ def test_D_pdf_consistency_and_horizon(module, args):
 DISK_CASES = [
     ("beckmann", (0.6, 0.6)), ("beckmann", (0.05, 0.9)), ("ggx", (0.3, 0.3)), ("ggx", (2.0, 0.01)),
     ("phong", (20.0,)), ("phong", (0.0,)), ("gaussian", (0.35,)),
+    ("student_t", (0.4, 0.4, 2.5)), ("student_t", (0.05, 0.9, 1.6)),
 ]
 DISK_IDS = [f"{name}-{'-'.join(map(str, args))}" for name, args in DISK_CASES]
 

@@ -9,7 +9,7 @@ import pytest
 from numba import literally
 
 from numba import njit
-from vcavity.microfacet import beckmann, gaussian, ggx, phong, registry
+from vcavity.microfacet import beckmann, gaussian, ggx, phong, student_t, registry
 from vcavity.parameters import Number, ParameterError, Roughness
 
 INTERFACE = ("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample", "sample_disk",
@@ -23,8 +23,8 @@ def example_values(name):
 
 
 def test_registered_modules_and_names():
-    assert registry.NAMES == ("beckmann", "ggx", "phong", "gaussian")
-    assert registry.MODULES == (beckmann, ggx, phong, gaussian)
+    assert registry.NAMES == ("beckmann", "ggx", "phong", "gaussian", "student_t")
+    assert registry.MODULES == (beckmann, ggx, phong, gaussian, student_t)
     assert len(set(registry.NAMES)) == len(registry.NAMES) == len(registry.MODULES)
     assert tuple(m.__name__.rsplit(".", 1)[1] for m in registry.MODULES) == registry.DISTRIBUTION_MODULES
 
@@ -43,7 +43,8 @@ def test_every_module_has_the_interface(module):
 
 def test_smith_status():
     assert {name: registry.get(name).SMITH for name in registry.NAMES} == {
-        "beckmann": "exact", "ggx": "exact", "phong": "approximate", "gaussian": "infinite"}
+        "beckmann": "exact", "ggx": "exact", "phong": "approximate", "gaussian": "infinite",
+        "student_t": "exact"}
 
 
 @pytest.mark.parametrize("name", registry.NAMES)

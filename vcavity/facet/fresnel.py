@@ -326,6 +326,24 @@ def r_e(eta):
 
 
 @njit(cache=True)
+def one_minus_r_e(eta):
+    """``1 - r_e``, computed directly where it is small (IL eq. 10, physics.md sec. 4, 9).
+
+    Parameters
+    ----------
+    eta : float
+        Relative index, ``eta >= 1``.
+
+    Returns
+    -------
+    float
+        Fraction of diffuse light from outside that the interface transmits; exactly 1 at
+        ``eta == 1``, ~16/(3 eta) at large eta.
+    """
+    return _r_e_and_complement(eta)[1]
+
+
+@njit(cache=True)
 def one_minus_r_i(eta):
     """``1 - r_i = (1 - r_e)/eta^2``, computed without forming r_i (physics.md sec. 4, 9).
 

@@ -37,7 +37,7 @@ from vcavity.facet.fresnel import (
     fresnel_dielectric_array,
     fresnel_transmittance,
     fresnel_transmittance_array,
-    one_minus_r_i,
+    one_minus_r_e,
     r_e,
 )
 from vcavity.parameters import Number
@@ -122,13 +122,19 @@ def has_specular(values) -> bool:
 def body_factor(values) -> float:
     """``kd / (pi eta^2 (1 - kd r_i))`` of the body term (IL eq. 8, physics.md sec. 4, 9).
 
-    The denominator is evaluated as ``(1 - kd) + kd (1 - r_i)`` (no cancellation).
-    0 when ``kd = 0``.
+    With ``eta^2 (1 - r_i) = 1 - r_e`` the denominator is evaluated as
+    ``pi (eta^2 (1 - kd) + kd (1 - r_e))``: a sum of non-negative terms, finite for every
+    ``eta`` (``1 - r_i`` underflows from eta ~ 1e108, ``eta^2`` overflows from ~1e154;
+    then the factor is correctly 0 for ``kd < 1``). 0 when ``kd = 0``.
     """
     kd, eta = float(values["kd"]), float(values["eta"])
     if kd == 0.0:
         return 0.0
-    return kd / (math.pi * eta * eta * ((1.0 - kd) + kd * float(one_minus_r_i(eta))))
+    absorbing = 0.0
+    if kd < 1.0:
+        with np.errstate(over="ignore"):  # inf for eta > ~1.3e154: the factor is then 0
+            absorbing = float(np.float64(eta) * np.float64(eta) * (1.0 - kd))
+    return kd / (math.pi * (absorbing + kd * float(one_minus_r_e(eta))))
 
 
 @njit(cache=True)

@@ -9,8 +9,8 @@ distribution through its ``Lambda`` (each distribution module provides
 ``smith_lambda``); the Smith forms below take the Lambda values and leave the
 sidedness factors ``chi+(v.m)`` to the caller.
 
-Every function here is ``numba.njit(cache=True)``; the ``*_many`` variants loop
-over ``(N, 3)`` float64 arrays for analytic (NumPy-side) code.
+Every function here is jitted (``vcavity._jit.njit(cache=True)``); vectorised
+evaluation of the distributions is in :mod:`vcavity.microfacet.registry`.
 """
 
 import math

@@ -130,7 +130,8 @@ def sample(u1, u2, params):
     -------
     tan_theta_m, cos_phi_m, sin_phi_m : float
         Finite ``tan theta_m >= 0`` (at most ~7e15 max(alpha), as gamma -> 1.5, and at
-        most ``common.MAX_TAN_THETA``) and a unit azimuth pair (``(1, 0)`` for ``u1 <= 0``).
+        most ``common.MAX_TAN_THETA``) and a unit azimuth pair (``(1, 0)`` when the
+        tangent is 0, e.g. for ``u1 <= 0`` or when ``r^2`` underflows).
     """
     if u1 >= 1.0:
         u1 = _ONE_MINUS_ULP
@@ -138,6 +139,8 @@ def sample(u1, u2, params):
         return 0.0, 1.0, 0.0
     # exponent <= 36.8/z < 74: r^2 < 1e32 for every gamma > 1.5
     r = math.sqrt(params[3] * math.expm1(-math.log1p(-u1) * params[4]))
+    if r == 0.0:  # u1 below ~1e-308 (subnormal r^2): the normal itself
+        return 0.0, 1.0, 0.0
     phi = _TWO_PI * u2
     return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
