@@ -60,6 +60,28 @@ def test_wrong_material_fails_with_status_1(tables, capsys):
     assert "FAIL" in capsys.readouterr().out
 
 
+@pytest.mark.parametrize("simulated, label", [
+    ({"kd": 0.5}, {"kd": 1.0}),        # the body albedo doubled
+    ({"alpha": 0.6}, {"alpha": 0.45}),  # a smoother surface than simulated
+    ({"eta": 1.5}, {"eta": 2.5}),      # a denser interface than simulated
+], ids=["kd-1.0-on-0.5", "alpha-0.45-on-0.6", "eta-2.5-on-1.5"])
+def test_mislabelled_stored_material_fails(tmp_path, capsys, simulated, label):
+    """The table is simulated with one material and its /material attributes then edited
+    (as a user mislabelling a file would): compare must exit 1. Each case deviates by
+    hundreds of standard errors in the chi-square or the albedo at these 200k paths, so
+    the chance of a pass is nil."""
+    path = write_run(tmp_path / "t.h5", dict(FIG7, **simulated))
+    with h5py.File(path, "r+") as h5:
+        for key, value in label.items():
+            if key == "alpha":
+                h5["material"].attrs["alpha_x"] = h5["material"].attrs["alpha_y"] = value
+            else:
+                h5["material"].attrs[key] = value
+    assert main(["compare", str(path)]) == 1
+    out = capsys.readouterr().out
+    assert "result: FAIL" in out and "FAIL (" in out
+
+
 def test_report_api_values(tables):
     table = open_table(tables["fig7"])
     report = compare_table(table)

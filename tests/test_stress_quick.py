@@ -186,20 +186,26 @@ def test_reemission_and_lossless_facets():
 
 
 def test_grid_needs_no_edit_for_a_new_distribution(monkeypatch):
-    # register the Student-t module (tests/microfacet/test_student_t.py) in the Python-level
-    # registry only: the grid, its labels and the roughness helpers come from its declarations
-    from vcavity.microfacet import registry, student_t
+    # register a new distribution (a clone of GGX under another name) in the Python-level
+    # registry only: the grid, its labels and the roughness helpers come from its
+    # declarations, with no edit to scripts/stress.py
+    import types
 
-    monkeypatch.setattr(registry, "MODULES", registry.MODULES + (student_t,))
-    monkeypatch.setattr(registry, "NAMES", registry.NAMES + (student_t.NAME,))
-    monkeypatch.setattr(registry, "_BY_NAME", {**registry._BY_NAME, student_t.NAME: student_t})
+    from vcavity.microfacet import ggx, registry
+
+    clone = types.ModuleType("clone")
+    clone.__dict__.update({k: v for k, v in vars(ggx).items() if not k.startswith("__")})
+    clone.NAME = "clone_t"
+    monkeypatch.setattr(registry, "MODULES", registry.MODULES + (clone,))
+    monkeypatch.setattr(registry, "NAMES", registry.NAMES + (clone.NAME,))
+    monkeypatch.setattr(registry, "_BY_NAME", {**registry._BY_NAME, clone.NAME: clone})
     cases = stress.build_cases()
-    new = [c for c in cases if c.material["distribution"] == "student_t"]
+    new = [c for c in cases if c.material["distribution"] == "clone_t"]
     assert {c.material.get("facet", "interfaced_lambertian") for c in new} == set(facets.NAMES)
-    assert any("tiny" in c.name for c in new) and any(c.name.startswith("dist student_t") for c in new)
+    assert any("tiny" in c.name for c in new) and any(c.name.startswith("dist clone_t") for c in new)
     for c in new:
         m = validate({"material": c.material}).material  # a complete, valid material
-        assert "student_t" in stress.describe(c.material)
-        width = distributions.lobe_width("student_t", m.distribution_params)
+        assert "clone_t" in stress.describe(c.material)
+        width = distributions.lobe_width("clone_t", m.distribution_params)
         assert width == pytest.approx(1e-4, rel=1e-5) if "tiny" in c.name else width == pytest.approx(0.5, rel=1e-5)
     assert len({(c.name, c.theta_deg, c.phi_deg) for c in cases}) == len(cases)

@@ -19,7 +19,7 @@ from vcavity.parameters import Roughness
 from vcavity._jit import njit
 
 NAME = "beckmann"
-DESCRIPTION = "Beckmann: Gaussian slopes, exp(-tan^2 theta_m / alpha^2) (W eq. 25, H eq. 82)"
+DESCRIPTION = "Gaussian slopes, exp(-tan^2 theta_m / alpha^2) (W eq. 25, H eq. 82)"
 PARAMETERS = (Roughness(summary="Beckmann roughness, sqrt(2) x rms slope", example=0.6),)
 SMITH = "exact"
 

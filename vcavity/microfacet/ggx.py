@@ -19,7 +19,7 @@ from vcavity.parameters import Roughness
 from vcavity._jit import njit
 
 NAME = "ggx"
-DESCRIPTION = "GGX / Trowbridge-Reitz: slopes with a 1/(1 + tan^2/alpha^2)^2 tail (W eq. 33, H eq. 85)"
+DESCRIPTION = "Trowbridge-Reitz: slopes with a 1/(1 + tan^2/alpha^2)^2 tail (W eq. 33, H eq. 85)"
 PARAMETERS = (Roughness(summary="GGX roughness", example=0.5),)
 SMITH = "exact"
 

@@ -26,7 +26,7 @@ from vcavity.parameters import Number
 from vcavity._jit import njit
 
 NAME = "phong"
-DESCRIPTION = "Phong: D proportional to cos^exponent theta_m, isotropic (W eq. 30)"
+DESCRIPTION = "D proportional to cos^exponent theta_m, isotropic (W eq. 30)"
 PARAMETERS = (Number("exponent", "Phong exponent alpha_p; like Beckmann alpha = sqrt(2/(alpha_p + 2))",
                      lo=0.0, example=20.0),)
 SMITH = "approximate"  # Walter's Beckmann-based form, W sec. 5.2 (see the module docstring)
