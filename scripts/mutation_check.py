@@ -67,7 +67,7 @@ MUTANTS = (
            "projected = 0.5 * np.pi * _projected_integral_over_rectangles(*bounds)",
            "projected = np.pi * _projected_integral_over_rectangles(*bounds)",
            "every cell's projected solid angle doubled (tables' BRDF off by 2x)",
-           ("tests/validation/test_brdf_units.py",)),
+           ("tests/validation/test_table_units_reference.py",)),
     Mutant("max-instead-of-min-masking", "vcavity/microfacet/common.py",
            "    return gi if gi < go else go",
            "    return gi if gi > go else go",
