@@ -3,13 +3,13 @@
 1. Mirror facets and ``kd = 0`` dielectric facets (eta 1.5), where a path is
    deterministic given the groove and entry point: the f1, f2 and f3 counts per cell
    against tests/reference/groove_paths.py (our own 2-D unfolding tracer, ``x'``
-   integrated exactly between breakpoints, normals on a 256 x 512 grid with sub-sampled
-   patches where the exit cell changes). Pearson chi-square per order + albedo z-test
-   per order, and for mirrors the z-test of the exits after more than 3 bounces against
-   the reference's remainder. Reference error (refinement against 512 x 1024, cells
-   pooled as in the test; mirrors on 256 x 512, dielectrics on 192 x 384): chi-square
-   inflation ``paths Σ (ΔP)²/P`` <= 0.6 at 2e6 paths for f2, <= 0.4 for f3, albedos
-   <= 1e-4 relative (tests/validation/test_reference_checks.py, slow).
+   integrated exactly between breakpoints, normals on a 256 x 512 grid (mirrors) or
+   192 x 384 (dielectrics) with shifted sub-grids in the patches where the exit cell
+   changes). Pearson chi-square per order + albedo z-test per order, and for mirrors the
+   z-test of the exits after more than 3 bounces against the reference's remainder.
+   Reference error (against 768 x 1536, cells kept alone as in the test): chi-square
+   inflation ``paths Σ (ΔP)²/P`` <= 0.8 at 2e6 paths for f2, <= 0.5 for f3 (mirrors),
+   <= 0.01 (dielectrics); albedos <= 1e-4 relative (test_reference_checks.py, slow).
 2. Lambertian facets (eta = 1): f1 and f2 albedos against the 2-D view-factor reference
    (tests/reference/lambertian_orders.py), z-tests at several theta_i.
 3. The K boundary, exactly (integers, same seed): runs with max_order = 1, 2, 3 give
