@@ -82,7 +82,7 @@ MUTANTS = (
            'return np.array([values["alpha_x"], values["alpha_y"]], dtype=np.float64)',
            'return np.array([values["alpha_y"], values["alpha_x"]], dtype=np.float64)',
            "GGX alpha_x and alpha_y swapped in the parameter packing",
-           ("tests/validation/test_f1_reference.py",)),
+           ("tests/validation/test_anisotropy_reference.py",)),
     Mutant("mirrored-exit-azimuth", "vcavity/kernels/trace.py",
            "    wy = dx * sin_phi + dy * cos_phi",
            "    wy = -(dx * sin_phi + dy * cos_phi)",
