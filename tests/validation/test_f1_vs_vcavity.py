@@ -18,7 +18,6 @@ alpha 0.05 to 1.
 
 import math
 
-import numpy as np
 import pytest
 
 from vcavity.analytic.cells import cell_integrals

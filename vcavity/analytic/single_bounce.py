@@ -21,8 +21,6 @@ physics.md sec. 6) and stay finite at the horizon.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import prange
 
