@@ -167,7 +167,6 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     DIST, FACET, VARIANT = key
     SOURCE_TAG = _SOURCE_TAG
 
-    @njit(cache=True, parallel=True)
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
                max_bounces, max_order, resolution, n_slots):
         _ = SOURCE_TAG  # part of the cache key; see _source_tag
@@ -206,5 +205,10 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
             stats[slot, STAT_MAX_BOUNCES] = deepest
         return counts, stats
 
+    # Every variant gets its own name: Numba names the cache files and the compiled
+    # symbols after __qualname__ (plus a per-process counter), so variants compiled in
+    # different processes under one name collided when loaded together ("descr is NULL").
+    kernel.__qualname__ = kernel.__name__ = f"kernel_d{DIST}_f{FACET}_v{VARIANT}"
+    kernel = njit(cache=True, parallel=True)(kernel)
     _KERNELS[key] = kernel
     return kernel
