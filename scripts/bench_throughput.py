@@ -1,69 +1,292 @@
 #!/usr/bin/env python
-"""Throughput of the V-groove walk: paths per second, compile time excluded.
+"""Throughput of the V-groove walk: paths per second of the kernel, compile time excluded.
 
-Prints, for a specular dielectric, the IL paper's figure 7(b) material and Lambertian
-facets, the paths/s with 1 and 2 threads, the parallel efficiency, and the peak RSS
-growth between a short and a long run (memory must not grow with the path count).
+Three measurements, printed as tables (docs/performance.md records them):
 
-    python scripts/bench_throughput.py [--paths N] [--theta-deg 60] [--repeat 3]
+1. **Against an old commit** (default aae24c0, issue 9): the old commit is checked out in a
+   temporary ``git worktree`` (removed afterwards), and old and new kernels trace the
+   figure 7(b) material at theta_i = 60 deg with 2 threads in alternating subprocesses
+   (each compiled first, with its own Numba cache); median paths/s of each and the ratio.
+2. **Every specialisation** of the current kernel, 1 and 2 threads: the general walk, the
+   exact-f1 estimator's binning skip, f1 only, the facet variants, an anisotropic roughness.
+3. **The plain-NumPy vectorised walk** (tests/reference/numpy_walk.py) single-threaded, and
+   the kernel's single-thread ratio to it.
+
+The machine may be shared: the 1-minute load average is printed before each table, and
+every rate is given twice, per wall-clock second and per CPU second of the process (all
+its threads): on a busy machine the wall-clock rates drop with the share of the cores the
+benchmark gets, while paths per CPU second measure the work per path and barely move.
+Ratios measured side by side are the figures to trust, not absolute rates.
+
+    python scripts/bench_throughput.py [--paths 2e7] [--repeat 5] [--plot out.png]
+    python scripts/bench_throughput.py --skip-baseline --billion   # also time 1e9 paths (2 threads)
 """
 
 from __future__ import annotations
 
 import argparse
-import resource
+import json
+import math
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
 import time
+from pathlib import Path
 
-import numba
+ROOT = Path(__file__).resolve().parent.parent
+BLOCK = 4096  # rng.BLOCK_SIZE of every version: the untimed compile call traces one block
+FIG7B = {"distribution": "beckmann", "alpha": 0.6, "facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}
 
+# A child process times the kernel alone through Simulation._call (present, with these
+# arguments, in every version since the kernel existed): one call over all blocks.
+CHILD = r"""
+import json, math, sys, time
+spec = json.loads(sys.argv[1])
 from vcavity.config import validate
-from vcavity.simulate import Simulation
+from vcavity.simulate import Simulation, incident_vector
+from vcavity.rng import BLOCK_SIZE, direction_key
+cfg = validate({"material": spec["material"], "incidence": {"theta_i_deg": [spec["theta"]], "paths": spec["paths"]}})
+sim = Simulation(cfg, threads=spec["threads"])
+compile_s = sim.compile()
+d = cfg.incidence[0]
+incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
+rates, cpu = [], []
+for _ in range(spec["repeat"]):
+    t0, c0 = time.perf_counter(), time.process_time()
+    sim._call(incident, key, 0, -(-d.paths // BLOCK_SIZE), d.paths)
+    rates.append(d.paths / (time.perf_counter() - t0))
+    cpu.append(d.paths / (time.process_time() - c0))
+print(json.dumps({"compile_s": compile_s, "rates": rates, "cpu_rates": cpu}))
+"""
 
-MATERIALS = {
-    "specular dielectric (kd=0, eta=1.5)": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.0, "eta": 1.5},
-    "figure 7b IL (kd=0.9, eta=1.5)": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
-    "Lambertian (kd=0.9, eta=1)": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.0},
-}
+
+def _load() -> str:
+    return f"load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores"
 
 
-def _rate(material, theta_deg, paths, threads, repeat):
-    cfg = validate({"material": material, "incidence": {"theta_i_deg": [theta_deg], "paths": paths}})
-    sim = Simulation(cfg, threads=threads)
-    compile_s = sim.compile()
-    best = 0.0
-    for _ in range(repeat):
+def _child(tree: Path, cache: Path, spec: dict) -> dict:
+    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_CACHE_DIR=str(cache))
+    out = subprocess.run([sys.executable, "-c", CHILD, json.dumps(spec)], env=env, cwd=str(tree),
+                         capture_output=True, text=True)
+    if out.returncode != 0:
+        raise SystemExit(f"bench_throughput: child in {tree} failed:\n{out.stderr[-2000:]}")
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+def against_commit(commit: str, paths: int, rounds: int, theta: float) -> dict:
+    """Median 2-thread paths/s of the old commit and of this tree, alternating subprocesses."""
+    with tempfile.TemporaryDirectory(prefix="vcavity-bench-") as tmp:
+        tmp = Path(tmp)
+        old_tree = tmp / "old"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(old_tree), commit],
+                       check=True, capture_output=True, text=True)
+        try:
+            spec = {"material": FIG7B, "theta": theta, "paths": paths, "threads": 2, "repeat": 1}
+            caches = {"old": tmp / "cache-old", "new": Path(os.environ.get("NUMBA_CACHE_DIR", tmp / "cache-new"))}
+            trees = {"old": old_tree, "new": ROOT}
+            compile_s = {}
+            for name in ("old", "new"):  # compile (or load) once, untimed
+                compile_s[name] = _child(trees[name], caches[name], {**spec, "paths": BLOCK, "repeat": 1})["compile_s"]
+            rates = {"old": [], "new": []}
+            cpu = {"old": [], "new": []}
+            for r in range(rounds):
+                order = ("old", "new") if r % 2 == 0 else ("new", "old")
+                for name in order:
+                    got = _child(trees[name], caches[name], spec)
+                    rates[name] += got["rates"]
+                    cpu[name] += got["cpu_rates"]
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(old_tree)],
+                           capture_output=True, text=True)
+    med = {k: statistics.median(v) for k, v in rates.items()}
+    cpu_med = {k: statistics.median(v) for k, v in cpu.items()}
+    pairs = [n / o for o, n in zip(rates["old"], rates["new"])]
+    return {"commit": commit, "rates": rates, "median": med, "ratio": med["new"] / med["old"],
+            "pair_ratios": pairs, "cpu_rates": cpu, "cpu_median": cpu_med,
+            "cpu_ratio": cpu_med["new"] / cpu_med["old"], "compile_s": compile_s}
+
+
+# (label, material, simulation table, first_binned_order)
+CASES = [
+    ("fig. 7b IL, general (max_order 3)", FIG7B, {}, 1),
+    ("fig. 7b IL, exact-f1 (orders >= 2 binned)", FIG7B, {}, 2),
+    ("fig. 7b IL, f1 only", FIG7B, {"max_order": 1, "track_all_orders": False}, 1),
+    ("fig. 7b IL, anisotropic alpha 0.6 x 0.3", {**FIG7B, "alpha": None, "alpha_x": 0.6, "alpha_y": 0.3}, {}, 1),
+    ("specular dielectric kd = 0, general", {**FIG7B, "kd": 0.0}, {}, 1),
+    ("specular dielectric kd = 0, f1 only", {**FIG7B, "kd": 0.0}, {"max_order": 1, "track_all_orders": False}, 1),
+    ("Lambertian facets (eta = 1), general", {**FIG7B, "eta": 1.0}, {}, 1),
+    ("mirror facets, general", {"distribution": "beckmann", "alpha": 0.6, "facet": "mirror"}, {}, 1),
+]
+
+
+def variants_table(paths: int, repeat: int, theta: float) -> list[dict]:
+    """Median paths/s of each case at 1 and 2 threads (kernel calls in this process)."""
+    import numba
+    import numpy as np
+
+    from vcavity.config import validate
+    from vcavity.rng import BLOCK_SIZE, direction_key
+    from vcavity.simulate import Scene, incident_vector
+    from vcavity.kernels.trace import get_kernel
+
+    rows = []
+    for label, material, simulation, first_binned in CASES:
+        material = {k: v for k, v in material.items() if v is not None}
+        cfg = validate({"material": material, "incidence": {"theta_i_deg": [theta], "paths": paths},
+                        "simulation": simulation})
+        scene = Scene.of(cfg.material)
+        kernel = get_kernel(scene.dist_kind, scene.facet_kind, scene.facet_variant)
+        d = cfg.incidence[0]
+        incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
+
+        def call(n_paths, threads):
+            numba.set_num_threads(threads)
+            return kernel(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths, scene.params, scene.facet_data,
+                          cfg.effective_max_bounces, cfg.max_order, cfg.sensor_resolution, threads, first_binned)
+
+        t0 = time.perf_counter()
+        call(BLOCK_SIZE, 1)
+        compile_s = time.perf_counter() - t0
+        row = {"label": label, "compile_or_load_s": compile_s}
+        for threads in (1, 2):
+            rates, cpu = [], []
+            for _ in range(repeat):
+                t0, c0 = time.perf_counter(), time.process_time()
+                counts, _stats = call(paths, threads)
+                rates.append(paths / (time.perf_counter() - t0))
+                cpu.append(paths / (time.process_time() - c0))
+            row[threads] = statistics.median(rates)
+            row[f"cpu{threads}"] = statistics.median(cpu)
+        assert np.all(counts >= 0)
+        rows.append(row)
+        print(f"  {label:44s} {row[1] / 1e6:8.2f} {row[2] / 1e6:8.2f}   {row['cpu1'] / 1e6:8.2f} "
+              f"{row['cpu2'] / 1e6:8.2f}   {compile_s:6.1f} s", flush=True)
+    return rows
+
+
+def numpy_rate(paths: int, theta: float) -> tuple[float, float]:
+    """Paths per wall-clock and per CPU second of the plain-NumPy walk (fig. 7b), single-threaded."""
+    sys.path.insert(0, str(ROOT))
+    from tests.reference.numpy_walk import walk
+
+    walk(FIG7B, math.radians(theta), 0.0, 1000, 57, 3)  # warm the Fresnel/quadrature caches
+    t0, c0 = time.perf_counter(), time.process_time()
+    walk(FIG7B, math.radians(theta), 0.0, paths, 57, 3)
+    return paths / (time.perf_counter() - t0), paths / (time.process_time() - c0)
+
+
+def plot(path: str, rows: list[dict], numpy_rates: tuple[float, float], baseline: dict | None) -> None:
+    """Two panels of horizontal bars: paths per wall-clock second and per CPU second."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    nan = float("nan")
+    labels = [r["label"] for r in rows] + ["plain NumPy walk (fig. 7b)"]
+    series = {"wall": ([r[1] for r in rows] + [numpy_rates[0]], [r[2] for r in rows] + [nan]),
+              "cpu": ([r["cpu1"] for r in rows] + [numpy_rates[1]], [r["cpu2"] for r in rows] + [nan])}
+    if baseline:
+        labels += [f"fig. 7b general, commit {baseline['commit']}", "fig. 7b general, this tree (same runs)"]
+        for key, med in (("wall", "median"), ("cpu", "cpu_median")):
+            series[key][0].extend([nan, nan])
+            series[key][1].extend([baseline[med]["old"], baseline[med]["new"]])
+    y = list(range(len(labels)))
+    fig, axes = plt.subplots(1, 2, figsize=(14, 0.45 * len(labels) + 1.8), sharey=True, constrained_layout=True)
+    for ax, key, xlabel in zip(axes, ("wall", "cpu"), ("M paths per wall-clock second",
+                                                      "M paths per CPU second (all threads)")):
+        one, two = series[key]
+        ax.barh([v - 0.2 for v in y], [r / 1e6 for r in one], height=0.4, label="1 thread")
+        ax.barh([v + 0.2 for v in y], [r / 1e6 for r in two], height=0.4, label="2 threads")
+        ax.set_xlabel(xlabel)
+        ax.grid(axis="x", alpha=0.3)
+    axes[0].set_yticks(y, labels)
+    axes[0].invert_yaxis()
+    axes[1].legend(loc="lower right")
+    title = f"vcavity kernel throughput, theta_i = 60 deg, compile excluded ({_load()} at the end)"
+    if baseline:
+        title += (f"\n{baseline['ratio']:.2f}x commit {baseline['commit']} per wall second, "
+                  f"{baseline['cpu_ratio']:.2f}x per CPU second (2 threads, side by side)")
+    fig.suptitle(title)
+    fig.savefig(path, dpi=100)
+    print(f"plot: {path}")
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--paths", type=float, default=2e7, help="paths per timed run (default 2e7)")
+    parser.add_argument("--repeat", type=int, default=3, help="timed runs per variant and thread count (median)")
+    parser.add_argument("--rounds", type=int, default=5, help="alternating old/new subprocess pairs (default 5)")
+    parser.add_argument("--theta-deg", type=float, default=60.0)
+    parser.add_argument("--baseline", default="aae24c0", help="commit to compare against (default aae24c0)")
+    parser.add_argument("--skip-baseline", action="store_true", help="skip the comparison with the old commit")
+    parser.add_argument("--numpy-paths", type=float, default=2e6, help="paths of the NumPy walk (default 2e6)")
+    parser.add_argument("--billion", action="store_true", help="also time 1e9 paths of fig. 7b, 2 threads")
+    parser.add_argument("--plot", metavar="PNG", help="write a bar chart of the tables")
+    parser.add_argument("--json", metavar="OUT", help="write every figure as JSON")
+    args = parser.parse_args(argv)
+    paths = int(args.paths)
+    out = {"argv": sys.argv[1:], "date": time.strftime("%Y-%m-%d %H:%M")}
+
+    baseline = None
+    if not args.skip_baseline:
+        print(f"1. fig. 7b material, theta_i = {args.theta_deg} deg, 2 threads, {paths:,} paths per run; "
+              f"commit {args.baseline} vs this tree, {args.rounds} alternating rounds ({_load()})", flush=True)
+        baseline = against_commit(args.baseline, paths, args.rounds, args.theta_deg)
+        for name in ("old", "new"):
+            print(f"  {name}: " + " ".join(f"{r / 1e6:.2f}" for r in baseline["rates"][name])
+                  + f" M/s, median {baseline['median'][name] / 1e6:.2f} M/s; per CPU second median "
+                  f"{baseline['cpu_median'][name] / 1e6:.2f} M/s")
+        print(f"  ratio of medians {baseline['ratio']:.3f} (per CPU second {baseline['cpu_ratio']:.3f}); "
+              "per-round ratios " + " ".join(f"{r:.3f}" for r in baseline["pair_ratios"]))
+        out["baseline"] = baseline
+
+    print(f"\n2. specialisations, median of {args.repeat} runs of {paths:,} paths ({_load()})")
+    print(f"  {'':44s} {'M paths / wall s':>17s}   {'M paths / CPU s':>17s}")
+    print(f"  {'case':44s} {'1 thread':>8s} {'2 thr.':>8s}   {'1 thread':>8s} {'2 thr.':>8s}   compile/load")
+    rows = variants_table(paths, args.repeat, args.theta_deg)
+    out["variants"] = rows
+    general = rows[0]
+    print(f"  {'ratio to the general fig. 7b kernel':44s} {'2 thr.':>8s} {'per CPU s, 1 thread':>20s}")
+    for row in rows[1:]:
+        print(f"  {row['label']:44s} {row[2] / general[2]:7.2f}x {row['cpu1'] / general['cpu1']:19.2f}x")
+    print(f"  f1 only kd = 0 vs general kd = 0: {rows[5][2] / rows[4][2]:.2f}x (2 threads), "
+          f"{rows[5]['cpu1'] / rows[4]['cpu1']:.2f}x (per CPU s, 1 thread)")
+
+    numpy_paths = int(args.numpy_paths)
+    print(f"\n3. plain-NumPy walk, fig. 7b, {numpy_paths:,} paths, 1 thread ({_load()})", flush=True)
+    np_rate, np_cpu = numpy_rate(numpy_paths, args.theta_deg)
+    print(f"  NumPy {np_rate / 1e6:.3f} M/s ({np_cpu / 1e6:.3f} per CPU s); kernel 1 thread "
+          f"{general[1] / 1e6:.2f} M/s ({general['cpu1'] / 1e6:.2f} per CPU s): {general[1] / np_rate:.1f}x "
+          f"({general['cpu1'] / np_cpu:.1f}x per CPU second)")
+    out["numpy"] = {"rate": np_rate, "cpu_rate": np_cpu, "kernel_1_thread": general[1],
+                    "ratio": general[1] / np_rate, "cpu_ratio": general["cpu1"] / np_cpu}
+
+    seconds = 1e9 / general[2]
+    print(f"\n1e9 paths of fig. 7b at 2 threads: {seconds:.1f} s projected from the median rate")
+    if args.billion:
+        import numba
+
+        from vcavity.config import validate
+        from vcavity.simulate import Simulation
+
+        numba.set_num_threads(2)
+        cfg = validate({"material": FIG7B, "incidence": {"theta_i_deg": [args.theta_deg], "paths": 10**9}})
+        sim = Simulation(cfg, threads=2)
+        sim.compile()
         t0 = time.perf_counter()
         sim.run()
-        best = max(best, paths / (time.perf_counter() - t0))
-    return best, compile_s
-
-
-def _peak_rss_mb():
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
-
-
-def main():
-    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    parser.add_argument("--paths", type=int, default=20_000_000, help="paths per timed run (default 2e7)")
-    parser.add_argument("--theta-deg", type=float, default=60.0)
-    parser.add_argument("--repeat", type=int, default=3, help="timed runs per case; the best is kept")
-    args = parser.parse_args()
-    cores = numba.config.NUMBA_NUM_THREADS
-    print(f"numba {numba.__version__}, {cores} cores, theta_i = {args.theta_deg} deg, {args.paths:,} paths/run, best of {args.repeat}")
-    print(f"{'material':40s} {'1 thread':>14s} {f'{cores} threads':>14s} {'efficiency':>10s} {'compile/load':>12s}")
-    for name, material in MATERIALS.items():
-        r1, c1 = _rate(material, args.theta_deg, args.paths, 1, args.repeat)
-        rn, _ = _rate(material, args.theta_deg, args.paths, cores, args.repeat)
-        print(f"{name:40s} {r1 / 1e6:10.2f} M/s {rn / 1e6:10.2f} M/s {rn / (cores * r1):10.1%} {c1:10.2f} s", flush=True)
-    # memory: a 10x longer run must not raise the peak RSS
-    mat = MATERIALS["figure 7b IL (kd=0.9, eta=1.5)"]
-    _rate(mat, args.theta_deg, args.paths // 10, cores, 1)
-    before = _peak_rss_mb()
-    _rate(mat, args.theta_deg, args.paths * 2, cores, 1)
-    after = _peak_rss_mb()
-    print(f"peak RSS after {args.paths // 10:,} paths: {before:.1f} MB; after {args.paths * 2:,} paths: {after:.1f} MB "
-          f"(growth {after - before:+.1f} MB)")
+        seconds = time.perf_counter() - t0
+        print(f"  measured (Simulation.run, 1e9 paths): {seconds:.1f} s ({_load()})")
+        out["billion_s"] = seconds
+    if args.plot:
+        plot(args.plot, rows, (np_rate, np_cpu), baseline)
+    if args.json:
+        Path(args.json).write_text(json.dumps(out, indent=1, default=str))
+    return 0
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(main())

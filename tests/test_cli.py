@@ -60,5 +60,5 @@ def test_run_help_documents_keys_units_and_conventions():
     proc = subprocess.run([sys.executable, "-m", "vcavity.cli", "run", "--help"], capture_output=True, text=True)
     assert proc.returncode == 0
     for needle in ("theta_i_deg", "alpha_x", "kd", "eta", "max_bounces", "sensor_resolution", "1/sr", "degrees",
-                   "--threads", "--seed", "--paths"):
+                   "--threads", "--seed", "--paths", "--overwrite"):
         assert needle in proc.stdout, needle

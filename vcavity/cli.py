@@ -1,99 +1,28 @@
-"""Command-line interface: ``vcavity run``, ``vcavity info`` and ``vcavity compare``.
+"""Command-line interface: ``vcavity run``, ``vcavity info``, ``vcavity compare`` and ``vcavity plot``.
 
 Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
-(config, arguments, unreadable table, model not applicable) with a one-line message and
-no output file; 130 interrupted (no output file written or changed).
+(config, arguments, output path, unreadable table, model not applicable, not enough memory
+or disk, a write that failed) with a one-line message and no output file; 130 interrupted
+(Ctrl-C: one line, no output file written or changed).
 """
 
 from __future__ import annotations
 
 import argparse
 import math
-import os
 import sys
-from pathlib import Path
+
+# Argument types, the one-line error format and the run help live in cli_args.py; the
+# names are imported here too because cli_sweep.py uses them from vcavity.cli.
+from vcavity.cli_args import EXIT_BAD_INPUT, _PATHS_MAX, _count, _fraction, _Parser, _seed, run_epilog
 
 EXIT_OK = 0
-EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130
-
-_RUN_EPILOG_TAIL = """\
-  [incidence]  theta_i_deg = [0, 30, 60, 80]   phi_i_deg = 0   paths = 10000000
-               (phi_i_deg and paths: one value, or one per theta_i_deg)
-  [simulation] seed = 1   max_order = 3   max_bounces = 10000
-               track_all_orders = true   sensor_resolution = 57 (N x N cells)
-  [output]     path = "table.h5" (relative to the config file)
-
-conventions: macro normal +z; theta from +z, phi from +x toward +y; directions
-point away from the surface. The table holds, per incident direction, bounce
-order (0 = all orders, f_inf) and sensor cell, the cell-averaged cosine-weighted
-BRDF in 1/sr with its standard error (docs/hdf5-format.md).
-
-without CONFIG: the built-in default run, the IL paper's figure 7(b) material
-(Beckmann alpha 0.6, kd 0.9, eta 1.5) at theta_i = 0, 30, 60, 80 degrees.
-examples in runs/. The same config and seed give the same table for any
---threads and --chunk-blocks.
-"""
-
-
-def run_epilog() -> str:
-    """``vcavity run --help`` epilog: config keys, generated from the registries."""
-    from vcavity.facet import registry as facets
-    from vcavity.microfacet import registry as distributions
-
-    lines = ["config file (TOML):",
-             f"  [material]   distribution = {' | '.join(repr(n) for n in distributions.NAMES)} "
-             f"(default 'beckmann'), with its parameters:"]
-    lines += [f"      {line}" for line in distributions.help_lines()]
-    lines.append(f"               facet = {' | '.join(repr(n) for n in facets.NAMES)} "
-                 "(default 'interfaced_lambertian'), with its parameters:")
-    lines += [f"      {line}" for line in facets.help_lines()]
-    return "\n".join(lines) + "\n" + _RUN_EPILOG_TAIL
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text.replace("_", ""))
-    except ValueError:
-        try:
-            value = float(text)
-        except ValueError:
-            raise argparse.ArgumentTypeError(f"{text!r}: expected a positive integer") from None
-        if not (math.isfinite(value) and value == int(value)):
-            raise argparse.ArgumentTypeError(f"{text!r}: expected a positive integer") from None
-        value = int(value)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a positive integer")
-    return value
-
-
-def _nonnegative_int(text: str) -> int:
-    if text == "0":
-        return 0
-    return _positive_int(text)
-
-
-class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose epilog may be a function, called only when help is shown.
-
-    ``vcavity run --help`` lists every registered distribution and facet model; building
-    that text imports the registries (and Numba), which ``vcavity info`` must not need.
-    """
-
-    def __init__(self, *args, epilog_factory=None, **kwargs):
-        super().__init__(*args, **kwargs)
-        self._epilog_factory = epilog_factory
-
-    def format_help(self):
-        if self._epilog_factory is not None:
-            self.epilog = self._epilog_factory()
-            self._epilog_factory = None
-        return super().format_help()
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``vcavity`` argument parser (exposed for documentation and tests)."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vcavity",
         description="Monte-Carlo simulation of light in microfacet V-cavities: "
         "BRDF tables per bounce order (f1, f2, ..., f_inf) with error bars.",
@@ -114,13 +43,35 @@ def build_parser() -> argparse.ArgumentParser:
     )
     run.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run config (default: built-in figure 7 run)")
     run.add_argument("-o", "--output", metavar="OUT.h5",
-                     help="output table (default: [output].path, else CONFIG with .h5, else ./vcavity-default.h5); "
-                     "an existing file is replaced atomically when the run completes")
-    run.add_argument("--paths", type=_positive_int, metavar="N", help="paths per incident direction (overrides the config)")
-    run.add_argument("--threads", type=_positive_int, metavar="T", help="worker threads (default: all cores)")
-    run.add_argument("--seed", type=_nonnegative_int, metavar="S", help="random seed (overrides the config)")
-    run.add_argument("--chunk-blocks", type=_positive_int, metavar="B",
+                     help="output table (default: [output].path, else CONFIG with .h5, else ./vcavity-default.h5)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace an existing table (atomically, only when the run completes); without it an "
+                     "existing output is refused before anything runs")
+    run.add_argument("--paths", type=_count(1, _PATHS_MAX), metavar="N",
+                     help="paths per incident direction, e.g. 1e6 (overrides the config)")
+    run.add_argument("--threads", type=_count(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    run.add_argument("--seed", type=_seed, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
+    run.add_argument("--chunk-blocks", type=_count(1, 2**40), metavar="B",
                      help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
+    run.add_argument("--estimator", choices=("analog", "exact-f1", "paper"),
+                     help="analog: every order simulated (default); exact-f1: f1 from the exact V-cavity "
+                     "single-bounce model, orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
+                     "on a facet, weighted by its lit projected area) (overrides [simulation] estimator)")
+    run.add_argument("--target-error", type=_fraction, metavar="E",
+                     help="run each direction until the energy-weighted mean relative standard error of "
+                     "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths")
+    run.add_argument("--max-paths", type=_count(1, _PATHS_MAX), metavar="N",
+                     help="with --target-error: the most paths per direction (default: the config's paths)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same "
+                     "config and seed; the table equals an uninterrupted run's, bit for bit)")
+    run.add_argument("--checkpoint-every", type=_seconds, default=60.0, metavar="S",
+                     help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
+                     "saves it too and exits 130; removed once the table is written")
+    run.add_argument("--dask", metavar="ADDRESS",
+                     help="run the work units on a Dask cluster: a scheduler address (tcp://host:8786) or "
+                     "local:N for N local worker processes (needs vcavity[distributed]; docs/distributed.md); "
+                     "the table is the local run's, bit for bit")
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
     info = sub.add_parser("info", help="print a human summary of a table",
@@ -139,13 +90,28 @@ def build_parser() -> argparse.ArgumentParser:
                          help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
                          "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1)")
     compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
-    compare.add_argument("--significance", type=float, default=0.01, metavar="A",
+    compare.add_argument("--significance", type=_fraction, default=0.01, metavar="A",
                          help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
-    compare.add_argument("--nodes", type=_positive_int, default=64, metavar="N",
-                         help="body-integral nodes per axis of the model (accuracy control, default 64)")
+    compare.add_argument("--nodes", type=_count(1, 1024), default=64, metavar="N",
+                         help="body-integral nodes per axis of the model (accuracy control, default 64, "
+                         "at most 1024: the cost grows as N^2 per cell)")
     compare.add_argument("--lambda-fit", action="store_true",
                          help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
+    _add_plot_parser(sub)
+    from vcavity.cli_sweep import add_sweep_parser  # `vcavity sweep` lives in cli_sweep.py
+
+    add_sweep_parser(sub)
     return parser
+
+
+def _seconds(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0")
+    return value
 
 
 def _error(message: str) -> int:
@@ -153,14 +119,36 @@ def _error(message: str) -> int:
     return EXIT_BAD_INPUT
 
 
-def _resolve_output(args, cfg) -> Path:
-    if args.output:
-        return Path(args.output)
-    if cfg.output is not None:
-        return cfg.output
-    if args.config:
-        return Path(args.config).with_suffix(".h5")
-    return Path("vcavity-default.h5")
+def _preflight(args, cfg):
+    """Every check of a run that can fail, before compiling or tracing (vcavity/preflight.py).
+
+    Returns the :class:`~vcavity.preflight.Output`; raises ``PreflightError`` (one line).
+    """
+    import numba
+
+    from vcavity import preflight
+    from vcavity.sensor import EqualAreaSensor
+
+    out = preflight.resolve_output(args.output, cfg.output, args.config)
+    from vcavity.checkpoint import checkpoint_path
+
+    resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
+    preflight.check_output(out, args.config, args.overwrite or resuming)
+    if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
+        raise preflight.PreflightError(f"--threads = {args.threads}: must be between 1 and "
+                                       f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
+    n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
+    preflight.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
+    removed = preflight.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
+    preflight.check_disk_space(out, preflight.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
+    if removed:
+        print(f"vcavity: removed {len(removed)} stale temporary file(s) of interrupted writes: "
+              f"{', '.join(p.name for p in removed)}", file=sys.stderr)
+    return out
+
+
+_FLAG_OF = {"simulation.estimator": "--estimator", "simulation.target_error": "--target-error",
+            "simulation.max_paths": "--max-paths"}
 
 
 def _cmd_run(args) -> int:
@@ -176,54 +164,90 @@ def _cmd_run(args) -> int:
             )
         if args.seed is not None:
             cfg = dataclasses.replace(cfg, seed=args.seed)
+        overrides = {name: value for name, value in (("estimator", args.estimator),
+                     ("target_error", args.target_error), ("max_paths", args.max_paths)) if value is not None}
+        if args.max_paths is not None and args.target_error is None and cfg.target_error is None:
+            return _error(f"--max-paths = {args.max_paths}: applies only with --target-error "
+                          "(otherwise --paths is the number of paths)")
+        if overrides:
+            try:
+                cfg = cfg.replace(**overrides)
+            except config_mod.ConfigError as exc:  # name the flag the value came from
+                field = str(exc).split(" ", 1)[0]
+                if field not in _FLAG_OF or field.split(".")[1] not in overrides:
+                    raise
+                raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
     except config_mod.ConfigError as exc:
         return _error(str(exc))
-    out = _resolve_output(args, cfg)
-    if out.exists() and out.is_dir():
-        return _error(f"--output = {str(out)!r}: is a directory; give a file path")
-    if not out.parent.is_dir():
-        return _error(f"--output = {str(out)!r}: folder {str(out.parent)!r} does not exist")
-    if not os.access(out.parent, os.W_OK):
-        return _error(f"--output = {str(out)!r}: folder {str(out.parent)!r} is not writable")
-    import numba
+    from vcavity.preflight import PreflightError
 
-    if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
-        return _error(f"--threads = {args.threads}: must be between 1 and {numba.config.NUMBA_NUM_THREADS} (cores here)")
+    try:
+        output = _preflight(args, cfg)
+    except PreflightError as exc:
+        return _error(str(exc))
+    out = output.path
 
-    from vcavity.io.table import write_table
+    from vcavity.io.writer import write_result
     from vcavity.report import format_summary
     from vcavity.simulate import Simulation
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
     print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), "
           f"{sim.total_paths:,} paths, {sim.threads} thread(s)", file=sys.stderr)
+    from vcavity import checkpoint, runner
+
+    try:
+        state = runner.load_state(sim, out, args.resume or False)
+    except checkpoint.CheckpointError as exc:
+        if not (args.overwrite and not args.resume and "unfinished run exists" in str(exc)):
+            return _error(str(exc))
+        state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
     print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
           file=sys.stderr)
-    try:
-        if args.quiet:
-            result = sim.run()
-        else:
-            from tqdm import tqdm
+    from vcavity.analytic.single_bounce import ModelNotApplicable
 
-            with tqdm(total=sim.total_paths, unit="path", unit_scale=True, dynamic_ncols=True,
-                      desc="tracing", file=sys.stderr) as bar:
-                result = sim.run(on_progress=bar.update)
-    except KeyboardInterrupt:
-        print("vcavity: interrupted; no table written", file=sys.stderr)
-        return EXIT_INTERRUPTED
+    try:
+        model_s = sim.prepare_models()
+    except ModelNotApplicable as exc:
+        return _error(f"--estimator = exact-f1: {str(exc).splitlines()[0]}")
+    if cfg.estimator == "exact-f1":
+        print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
+    executor = None
+    if args.dask:
+        from vcavity.distributed import DaskExecutor, parse_address
+
+        try:
+            parse_address(args.dask)
+            executor = DaskExecutor(args.dask)
+        except (ValueError, ImportError, OSError) as exc:
+            return _error(f"--dask = {args.dask!r}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}")
     cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
-    write_table(
-        out,
-        theta_i=result.theta_i, phi_i=result.phi_i, order=result.order, counts=result.counts,
-        theta_i_deg=[d.theta_i_deg for d in cfg.incidence], phi_i_deg=[d.phi_i_deg for d in cfg.incidence],
-        paths=result.paths, absorbed_paths=result.absorbed_paths, truncated_paths=result.truncated_paths,
-        degenerate_paths=result.degenerate_paths, max_bounces_seen=result.max_bounces_seen,
-        sensor=result.sensor, material=cfg.material.to_dict(), config=cfg.to_dict(), seed=cfg.seed,
-        block_size=_block_size(), max_bounces=cfg.effective_max_bounces,
-        compute_time_s=result.compute_time_s, compile_time_s=result.compile_time_s,
-    )
-    rate = sim.total_paths / result.compute_time_s if result.compute_time_s > 0 else float("inf")
+
+    def write(result, cancelled):
+        write_result(out, result, cfg, cancelled=cancelled)
+
+    try:
+        status, result = runner.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
+                                             quiet=args.quiet, executor=executor)
+    except OSError as exc:
+        reason = exc.strerror or (str(exc).splitlines() or [type(exc).__name__])[0]
+        return _error(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
+                      "nothing was written and an existing file is unchanged; the checkpoint keeps the run")
+    finally:
+        if executor is not None:
+            executor.close()
+    if status != EXIT_OK:
+        return status
+    args.table_written = out
+    traced = int(result.paths.sum())
+    rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
+    if cfg.target_error is not None:
+        for d, paths, error, reached in zip(cfg.incidence, result.paths, result.relative_error,
+                                            result.target_reached):
+            state = "reached" if reached else "NOT reached: path cap hit"
+            print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
+                  f"(error {error:.3g} after {int(paths):,} paths)")
     print(f"wrote {out}")
     print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
           f"kernel compile/load {result.compile_time_s:.2f} s")
@@ -233,13 +257,26 @@ def _cmd_run(args) -> int:
     return EXIT_OK
 
 
-def _block_size() -> int:
-    from vcavity.rng import BLOCK_SIZE
-
-    return BLOCK_SIZE
-
-
 def _cmd_info(args) -> int:
+    from pathlib import Path
+
+    from vcavity.io.sweep_table import is_sweep_file
+
+    # a sweep file (vcavity sweep): its own summary; only regular files (h5py blocks on a FIFO)
+    if Path(args.table).is_file() and is_sweep_file(args.table):
+        from vcavity.cli_sweep import cmd_sweep_info
+
+        return cmd_sweep_info(args)
+    from vcavity import checkpoint
+
+    if Path(args.table).is_file() and checkpoint.is_checkpoint(args.table):  # a partial run
+        from vcavity.runner import describe_checkpoint
+
+        try:
+            print(describe_checkpoint(args.table))
+        except (OSError, KeyError, ValueError) as exc:
+            return _error(f"checkpoint {args.table!r}: cannot read it ({str(exc).splitlines()[0] if str(exc) else exc})")
+        return EXIT_OK
     from vcavity.io.table import TableFormatError, open_table
     from vcavity.report import format_summary
 
@@ -258,14 +295,24 @@ def _cmd_compare(args) -> int:
     from vcavity.compare import compare_table, format_report
     from vcavity.io.table import TableFormatError, open_table
 
+    from vcavity.preflight import PreflightError, check_plots_folder
+
     if not 0.0 < args.significance < 1.0:
         return _error(f"--significance = {args.significance}: must be in (0, 1)")
+    if args.plots is not None:
+        try:
+            check_plots_folder(args.plots)
+        except PreflightError as exc:
+            return _error(str(exc))
     try:
         table = open_table(args.table)
     except FileNotFoundError:
         return _error(f"table {args.table!r}: no such file")
     except (TableFormatError, OSError) as exc:
         return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    if 1 in table.order and table.is_analytic(1):
+        return _error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
+                      "there is no simulated f1 to test; run with --estimator analog to validate the walk")
     try:
         report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
                                lambda_fit=args.lambda_fit, plots_dir=args.plots)
@@ -277,16 +324,109 @@ def _cmd_compare(args) -> int:
     return EXIT_OK if report.passed else 1
 
 
+_PLOT_EPILOG = """\
+kinds:
+  slice   in-plane slices (plane of incidence; theta_o signed, > 0 on the specular
+          side phi_o = phi_i + 180, < 0 toward the light phi_o = phi_i) of f1, f2 and
+          f_inf on a log scale: one step per sensor cell the plane crosses (a table
+          holds cell averages), bands of +-2 standard errors, and the V-cavity and
+          Smith single-bounce models of f1 averaged over the same cells
+  map     equal-area hemispherical maps (disk, rings at theta_o = 30, 60, 90 deg) of
+          every order side by side, one row per incident direction; colour bars in 1/sr
+  albedo  albedo per order against theta_i, and the inter-reflection share
+          (f_inf - f1) / f_inf (needs f_inf: track_all_orders = true)
+  sweep   albedo against roughness per eta and kd: not supported yet (no sweep tables)
+
+examples:
+  vcavity plot t.h5                                  # slices of every direction -> t_slice.png
+  vcavity plot t.h5 --kind map --theta-i 60 --scale log -o map60.png
+  vcavity plot t.h5 --kind slice --order 1 3 inf --theta-i 30 60
+  vcavity plot t.h5 --kind albedo -o albedo.pdf
+scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig7_eta1.5.toml.
+"""
+
+
+def _add_plot_parser(sub) -> None:
+    plot = sub.add_parser(
+        "plot", help="draw a table: in-plane slices, hemispherical maps or albedos (PNG, PDF, SVG)",
+        description="Draw a table with matplotlib: BRDF values in 1/sr, angles in degrees. Bad input "
+        "(unknown kind, an order or theta_i the table lacks, -o in a missing folder) is a one-line "
+        "error with exit status 2, reported before anything is computed.",
+        epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run")
+    plot.add_argument("--kind", default="slice", metavar="KIND",
+                      help="slice (default), map, albedo or sweep (see below)")
+    plot.add_argument("-o", "--output", metavar="FILE",
+                      help="image to write, .png, .pdf or .svg (default: <table>_<kind>.png beside the table)")
+    plot.add_argument("--theta-i", nargs="+", metavar="DEG",
+                      help="incident polar angles to draw, degrees as in the run config (default: all)")
+    plot.add_argument("--order", nargs="+", metavar="K",
+                      help="bounce orders: 1 2 ... (or f1 f2 ...), 0 / inf / f_inf for all orders "
+                      "(default: slice f1 f2 f_inf, map and albedo every order of the table)")
+    plot.add_argument("--scale", metavar="SCALE",
+                      help="log or linear value scale of slices and maps (default: slice log, map linear)")
+    plot.add_argument("--no-models", action="store_true",
+                      help="slice: leave out the analytic models (they compile Numba code on first use)")
+
+
+def _cmd_plot(args) -> int:
+    from vcavity.io.table import TableFormatError, open_table
+    from vcavity.plots import PlotError, check_request, render
+
+    try:
+        table = open_table(args.table)
+    except FileNotFoundError:
+        return _error(f"table {args.table!r}: no such file")
+    except (TableFormatError, OSError) as exc:
+        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    try:
+        request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
+                                orders=args.order, scale=args.scale, models=not args.no_models)
+    except PlotError as exc:
+        return _error(str(exc))
+    render(table, request)
+    print(f"wrote {request.output}")
+    return EXIT_OK
+
+
 def main(argv: list[str] | None = None) -> int:
-    """Entry point of the ``vcavity`` console script."""
+    """Entry point of the ``vcavity`` console script.
+
+    Ctrl-C anywhere (compiling, tracing, writing, comparing) ends with one line on stderr
+    and exit status 130, never a traceback; ``run`` leaves no table and an old one untouched.
+    """
+    from vcavity.interrupts import is_interrupt
+
+    args = argparse.Namespace()
+    try:
+        return _dispatch(args, argv)
+    except BaseException as exc:
+        if not is_interrupt(exc):
+            raise
+        if getattr(args, "table_written", None) is not None:
+            print(f"vcavity: interrupted; the table was written: {args.table_written}", file=sys.stderr)
+        elif getattr(args, "command", None) == "run":
+            print("vcavity: interrupted; no table written", file=sys.stderr)
+        else:
+            print("vcavity: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+
+
+def _dispatch(args: argparse.Namespace, argv: list[str] | None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    parser.parse_args(argv, namespace=args)
     if args.command == "run":
         return _cmd_run(args)
     if args.command == "info":
         return _cmd_info(args)
     if args.command == "compare":
         return _cmd_compare(args)
+    if args.command == "plot":
+        return _cmd_plot(args)
+    if args.command == "sweep":
+        from vcavity.cli_sweep import cmd_sweep
+
+        return cmd_sweep(args)
     parser.error(f"unknown command {args.command!r}")
     return EXIT_BAD_INPUT
 

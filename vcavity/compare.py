@@ -31,7 +31,12 @@ import numpy as np
 
 from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.oren_nayar import OrenNayarModel
-from vcavity.analytic.single_bounce import DEFAULT_BODY_NODES, ModelNotApplicable, SingleBounceModel
+from vcavity.analytic.single_bounce import (
+    DEFAULT_BODY_NODES,
+    MAX_BODY_NODES,
+    ModelNotApplicable,
+    SingleBounceModel,
+)
 from vcavity.analytic.statistics import (
     AlbedoTest,
     ChiSquareResult,
@@ -113,12 +118,17 @@ def build_model(material: Material, model: str, n_nodes: int = DEFAULT_BODY_NODE
     Raises
     ------
     ModelNotApplicable
-        If the model does not apply to the material.
+        If the model does not apply to the material, or ``n_nodes`` (``--nodes``) is
+        outside ``[1, MAX_BODY_NODES]``.
     """
-    if model == "oren-nayar":
-        return OrenNayarModel(material)
     if model not in MODELS:
         raise ValueError(f"model = {model!r}: accepted {', '.join(MODELS)}")
+    if not 1 <= int(n_nodes) <= MAX_BODY_NODES:
+        # 2 n^2 nodes over m: --nodes 100000 would allocate 75 GiB
+        raise ModelNotApplicable(f"--nodes = {n_nodes}: must be in [1, {MAX_BODY_NODES}] (the body integral "
+                                 f"uses 2 N^2 nodes: {MAX_BODY_NODES} is already {2 * MAX_BODY_NODES ** 2:,})")
+    if model == "oren-nayar":
+        return OrenNayarModel(material)
     if lambda_fit and material.distribution != "beckmann":
         raise ModelNotApplicable("--lambda-fit (Walter's fit, W eq. 27) exists for beckmann tables only")
     return SingleBounceModel(material, masking=model, lambda_fit=lambda_fit, n_nodes=n_nodes)
@@ -205,6 +215,39 @@ def _fmt(x: float) -> str:
     return f"{x:.4g}"
 
 
+def _fixed(x: float, decimals: int = 6) -> str:
+    """``decimals`` places for figures of moderate size (albedos), else :func:`_fmt`: never
+    wider than about a dozen characters."""
+    x = float(x)
+    if math.isfinite(x) and abs(x) < 1e3:
+        return f"{x:.{decimals}f}"
+    return _fmt(x)
+
+
+def _angle(radians: float) -> str:
+    """An angle in degrees, 7 characters wide up to 1e4 degrees (beyond, 4 significant digits)."""
+    degrees = math.degrees(float(radians))
+    if math.isfinite(degrees) and abs(degrees) < 1e4:
+        return f"{degrees:7.2f}"
+    return f"{_fmt(degrees):>7}"
+
+
+def _verdict(report: ComparisonReport) -> str:
+    """``PASS``, ``FAIL`` or, when nothing failed but some chi-square had fewer than two
+    categories, ``NOT TESTABLE`` (never a pass: :mod:`vcavity.analytic.statistics`)."""
+    if report.passed:
+        return "PASS"
+    level = report.per_test_level
+    failed = [d for d in report.directions
+              if d.chi_square.failure or (d.chi_square.testable and not d.chi_square.passed(level))
+              or not d.albedo_test.passed(level)]
+    if failed:
+        return "FAIL"
+    untestable = [d for d in report.directions if not d.chi_square.testable]
+    return (f"NOT TESTABLE (the chi-square of {len(untestable)} direction(s) has fewer than two categories: "
+            "too few paths for the f1 test; not a pass)")
+
+
 def format_report(report: ComparisonReport) -> str:
     """Human-readable text of a :class:`ComparisonReport` (what ``vcavity compare`` prints)."""
     m = report.material
@@ -216,22 +259,21 @@ def format_report(report: ComparisonReport) -> str:
     level = report.per_test_level
     for d in report.directions:
         c, a = d.chi_square, d.albedo_test
-        albedos = "  ".join(f"{_order_name(k)} {v:.6f}" for k, v in sorted(d.table_albedo.items()))
+        albedos = "  ".join(f"{_order_name(k)} {_fixed(v)}" for k, v in sorted(d.table_albedo.items()))
         ratio = d.relative_l1 / d.noise_l1 if d.noise_l1 > 0 else float("inf")
         lines += [
-            f"theta_i {math.degrees(d.theta_i):6.2f} deg  phi_i {math.degrees(d.phi_i):6.2f} deg  "
-            f"paths {d.paths:,}",
+            f"theta_i {_angle(d.theta_i)} deg  phi_i {_angle(d.phi_i)} deg  paths {d.paths:,}",
             f"  table albedo: {albedos}",
-            f"  {'+'.join(_order_name(k) for k in d.model_orders)}: table {d.table_model_albedo:.6f}  "
-            f"model {d.model_albedo:.6f}  ({report.model})",
+            f"  {'+'.join(_order_name(k) for k in d.model_orders)}: table {_fixed(d.table_model_albedo)}  "
+            f"model {_fixed(d.model_albedo)}  ({report.model})",
             f"  relative L1 {_fmt(d.relative_l1)}  (noise alone: {_fmt(d.noise_l1)}, ratio {_fmt(ratio)})",
             f"  chi2 f1 vs vcavity: {_fmt(c.statistic)} / {c.dof} dof = {_fmt(c.statistic / c.dof)}  "
             f"p = {_fmt(c.p_value)}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
             f"largest cell deviation {_fmt(c.max_abs_z)} sigma in cell {c.max_z_cell})  -> {c.verdict(level)}",
-            f"  f1 albedo: table {d.table_albedo.get(1, float('nan')):.6f}  model {d.vcavity_f1_albedo:.6f}  "
+            f"  f1 albedo: table {_fixed(d.table_albedo.get(1, float('nan')))}  model {_fixed(d.vcavity_f1_albedo)}  "
             f"z = {_fmt(a.z)}  p = {_fmt(a.p_value)}  -> {a.verdict(level)}",
         ]
-    lines.append(f"result: {'PASS' if report.passed else 'FAIL'}")
+    lines.append(f"result: {_verdict(report)}")
     return "\n".join(lines)
 
 
@@ -259,7 +301,8 @@ def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, or
     for ax in axes:
         ax.set_xlabel("u (sensor square)")
         ax.set_ylabel("v")
-    fig.suptitle(f"{Path(str(table.path)).name}: theta_i {theta:.1f} deg, phi_i {phi:.1f} deg")
+    fig.suptitle(f"{Path(str(table.path)).name}: theta_i {_fmt(theta)} deg, phi_i {_fmt(phi)} deg")
     fig.tight_layout()
-    fig.savefig(folder / f"compare_{model}_theta{theta:05.1f}_phi{phi:05.1f}.png", dpi=90)
+    # file names stay short for any stored angle (phi_i = 1e300 deg is a valid table)
+    fig.savefig(folder / f"compare_{model}_theta{_fmt(theta)}_phi{_fmt(phi)}.png".replace("+", ""), dpi=90)
     plt.close(fig)

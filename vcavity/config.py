@@ -17,9 +17,9 @@ A run config has four tables::
     eta = 1.5
 
     [incidence]
-    theta_i_deg = [0, 30, 60, 80]  # polar angles of the light, degrees, in [0, 90)
-    phi_i_deg = 0                  # azimuths, degrees: one value or one per theta_i
-    paths = 10_000_000             # paths per direction: one value or one per theta_i
+    theta_i_deg = [0, 30, 60, 80]  # polar angles of the light, degrees, in [0, 90) (default [0])
+    phi_i_deg = 0                  # azimuths, degrees in [-360, 360]: one value or one per theta_i
+    paths = 10_000_000             # paths per direction (2e6 works too): one value or one per theta_i
 
     [simulation]
     seed = 1                       # any integer >= 0
@@ -27,6 +27,10 @@ A run config has four tables::
     max_bounces = 10000            # bounce cap; capped paths are reported as truncated
     track_all_orders = true        # f_inf (order 0); false stops every path after K bounces
     sensor_resolution = 57         # N: N x N equal-solid-angle cells (57 -> 3249)
+    estimator = "analog"           # or "exact-f1": f1 from the exact V-cavity model
+    fold_symmetry = true           # default: fold wherever the mirror symmetry is exact
+    target_error = 0.002           # optional: run each direction until this error ...
+    max_paths = 1_000_000_000      # ... or this many paths (default: incidence.paths)
 
     [output]
     path = "fig7.h5"               # optional; relative to the config file's folder
@@ -41,6 +45,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from vcavity.estimators import ESTIMATORS, EXACT_F1, has_mirror_symmetry
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import ParameterError
@@ -55,6 +60,12 @@ DEFAULT_MAX_BOUNCES = 10_000
 DEFAULT_SENSOR_RESOLUTION = 57
 MAX_SENSOR_RESOLUTION = 2048
 MAX_BOUNCES_LIMIT = 10_000_000
+MAX_PATHS = 2**62  # paths and block counts stay far from int64 overflow in the kernel
+# One turn each way, so both [0, 360) and (-180, 180] conventions work. Wider values are
+# refused, not wrapped: the random streams are keyed by the angle's float bits, so phi and
+# phi + 360 would be two different tables of one direction, and a typo like 1e300 has no
+# meaningful fractional degrees left.
+MAX_PHI_DEG = 360.0
 
 
 class ConfigError(ValueError):
@@ -139,12 +150,33 @@ class RunConfig:
     sensor_resolution: int = DEFAULT_SENSOR_RESOLUTION
     output: Path | None = None
     source: str = "<built-in default>"
+    estimator: str = "analog"
+    fold_symmetry: bool | None = None
+    target_error: float | None = None
+    max_paths: int | None = None
 
     @property
     def orders(self) -> tuple[int, ...]:
         """The table's order axis: 0 (f_inf, when tracked) then 1..max_order."""
         head = (0,) if self.track_all_orders else ()
         return head + tuple(range(1, self.max_order + 1))
+
+    def folds(self, direction: "Incidence") -> bool:
+        """Whether the table of ``direction`` is folded about its plane of incidence.
+
+        ``fold_symmetry`` None (the default) folds wherever the symmetry is exact
+        (:func:`vcavity.estimators.has_mirror_symmetry`); validation refuses ``true``
+        for a direction without it.
+        """
+        if self.fold_symmetry is False:
+            return False
+        return has_mirror_symmetry(direction.phi_i_deg, self.material.isotropic)
+
+    def path_budget(self, direction: "Incidence") -> int:
+        """Paths to trace for ``direction``: its ``paths``, or with a target error the cap."""
+        if self.target_error is not None and self.max_paths is not None:
+            return self.max_paths
+        return direction.paths
 
     @property
     def effective_max_bounces(self) -> int:
@@ -166,6 +198,10 @@ class RunConfig:
                 "max_bounces": self.max_bounces,
                 "track_all_orders": self.track_all_orders,
                 "sensor_resolution": self.sensor_resolution,
+                "estimator": self.estimator,
+                "fold_symmetry": self.fold_symmetry,
+                "target_error": self.target_error,
+                "max_paths": self.max_paths,
             },
             "output": {"path": str(self.output) if self.output else None},
             "source": self.source,
@@ -234,7 +270,8 @@ def _list_or_scalar(field_name: str, value: Any, n: int | None) -> list:
 # ---------------------------------------------------------------------------------------
 
 _INCIDENCE_KEYS = ("theta_i_deg", "phi_i_deg", "paths")
-_SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sensor_resolution")
+_SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sensor_resolution",
+                    "estimator", "fold_symmetry", "target_error", "max_paths")
 _OUTPUT_KEYS = ("path",)
 _TOP_KEYS = ("material", "incidence", "simulation", "output")
 
@@ -290,7 +327,10 @@ def _validate_incidence(raw: dict) -> tuple[Incidence, ...]:
         if not 0.0 <= t < 90.0:
             _fail("incidence.theta_i_deg", thetas[k], "must be in [0, 90) degrees")
         p = _number("incidence.phi_i_deg", phis[k if len(phis) > 1 else 0])
-        count = _integer("incidence.paths", paths[k if len(paths) > 1 else 0], 1, 2**62)
+        if not -MAX_PHI_DEG <= p <= MAX_PHI_DEG:
+            _fail("incidence.phi_i_deg", phis[k if len(phis) > 1 else 0],
+                  f"must be in [-{MAX_PHI_DEG:g}, {MAX_PHI_DEG:g}] degrees (azimuths repeat every 360)")
+        count = _integer("incidence.paths", _whole(paths[k if len(paths) > 1 else 0]), 1, MAX_PATHS)
         out.append(Incidence(theta_i=math.radians(t), phi_i=math.radians(p), paths=count,
                              theta_i_deg=thetas[k], phi_i_deg=phis[k if len(phis) > 1 else 0]))
     return tuple(out)
@@ -309,21 +349,25 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
     incidence = _validate_incidence(raw.get("incidence", {}))
     sim = _check_keys("simulation", raw.get("simulation", {}), _SIMULATION_KEYS)
     seed = _integer("simulation.seed", sim.get("seed", 1), 0, 2**64 - 1)
-    max_order = _integer("simulation.max_order", sim.get("max_order", DEFAULT_MAX_ORDER), 1, 1000)
-    max_bounces = _integer("simulation.max_bounces", sim.get("max_bounces", DEFAULT_MAX_BOUNCES), 1, MAX_BOUNCES_LIMIT)
+    # Counts may be written as integral floats (2e3), as on the command line (--paths 2e3).
+    max_order = _integer("simulation.max_order", _whole(sim.get("max_order", DEFAULT_MAX_ORDER)), 1, 1000)
+    max_bounces = _integer("simulation.max_bounces", _whole(sim.get("max_bounces", DEFAULT_MAX_BOUNCES)), 1,
+                           MAX_BOUNCES_LIMIT)
     if max_bounces < max_order:
         _fail("simulation.max_bounces", max_bounces, f"must be >= simulation.max_order ({max_order})")
     track = sim.get("track_all_orders", True)
     if not isinstance(track, bool):
         _fail("simulation.track_all_orders", track, "must be true or false")
-    resolution = _integer(
-        "simulation.sensor_resolution", sim.get("sensor_resolution", DEFAULT_SENSOR_RESOLUTION), 1, MAX_SENSOR_RESOLUTION
-    )
+    resolution = _integer("simulation.sensor_resolution",
+                          _whole(sim.get("sensor_resolution", DEFAULT_SENSOR_RESOLUTION)), 1, MAX_SENSOR_RESOLUTION)
+    estimator, fold, target_error, max_paths = _validate_estimation(sim, material, incidence, track, max_order)
     out = _check_keys("output", raw.get("output", {}), _OUTPUT_KEYS)
     output = None
     if out.get("path") is not None:
         if not isinstance(out["path"], str) or not out["path"]:
             _fail("output.path", out["path"], "must be a non-empty string (a file path)")
+        if out["path"].endswith(("/", "\\")) or Path(out["path"]).name in ("", ".", ".."):
+            _fail("output.path", out["path"], "names a folder; give a file path such as 'table.h5'")
         output = Path(out["path"])
         if base_dir is not None and not output.is_absolute():
             output = base_dir / output
@@ -337,7 +381,58 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         sensor_resolution=resolution,
         output=output,
         source=source,
+        estimator=estimator,
+        fold_symmetry=fold,
+        target_error=target_error,
+        max_paths=max_paths,
     )
+
+
+def _validate_estimation(sim: dict, material: Material, incidence, track: bool, max_order: int):
+    """``estimator``, ``fold_symmetry``, ``target_error``, ``max_paths`` of ``[simulation]``."""
+    estimator = sim.get("estimator", "analog")
+    if estimator not in ESTIMATORS:
+        _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in ESTIMATORS)}")
+    if estimator == EXACT_F1 and not track and max_order == 1:
+        _fail("simulation.estimator", estimator, "with max_order = 1 and track_all_orders = false "
+              "every order is analytic and nothing is simulated: use 'analog' or raise max_order")
+    fold = sim.get("fold_symmetry")
+    if fold is not None and not isinstance(fold, bool):
+        _fail("simulation.fold_symmetry", fold, "must be true or false (default: fold wherever "
+              "the mirror symmetry about the plane of incidence is exact)")
+    if fold:
+        for d in incidence:
+            if not has_mirror_symmetry(d.phi_i_deg, material.isotropic):
+                step = "45" if material.isotropic else "90"
+                kind = "an isotropic" if material.isotropic else "an anisotropic"
+                _fail("simulation.fold_symmetry", fold,
+                      f"needs phi_i_deg a multiple of {step} for {kind} material (the plane of "
+                      f"incidence must be a mirror plane of the BRDF and of the sensor grid), "
+                      f"got phi_i_deg = {d.phi_i_deg!r}; isotropic materials do not depend on "
+                      f"phi_i: simulate them at phi_i_deg = 0")
+    target_error = sim.get("target_error")
+    if target_error is not None:
+        target_error = _number("simulation.target_error", target_error)
+        if not 0.0 < target_error < 1.0:
+            _fail("simulation.target_error", sim["target_error"], "must be in (0, 1) (a relative error)")
+        if not track:
+            _fail("simulation.target_error", sim["target_error"], "needs track_all_orders = true "
+                  "(the stop rule measures the error of f_inf)")
+    max_paths = sim.get("max_paths")
+    if max_paths is not None:
+        max_paths = _integer("simulation.max_paths", _whole(max_paths), 1, MAX_PATHS)
+        if target_error is None:
+            _fail("simulation.max_paths", sim["max_paths"], "applies only with simulation.target_error "
+                  "(otherwise incidence.paths is the number of paths)")
+    return estimator, fold, target_error, max_paths
+
+
+def _whole(value: Any) -> Any:
+    """A float with an integral value (``2e9`` in TOML) as an int; anything else as it is
+    (huge floats too, so that the error message shows ``1e+300``, not 301 digits)."""
+    if isinstance(value, float) and math.isfinite(value) and abs(value) < 2**63 and value == int(value):
+        return int(value)
+    return value
 
 
 def load(path: str | Path) -> RunConfig:

@@ -7,6 +7,20 @@ import math
 import numpy as np
 
 
+def _angle(degrees: float) -> str:
+    """An angle for a table column: 2 decimals, or 3 significant digits when that would be
+    wider than 9 characters (a table may hold any finite azimuth), so columns stay narrow."""
+    text = f"{degrees:.2f}"
+    return text if len(text) <= 9 else f"{degrees:.3g}"
+
+
+def _number(value) -> float | None:
+    """A numeric attribute as float, None when absent or not a number (corrupt tables)."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    return float(value)
+
+
 def _order_label(k: int) -> str:
     return "f_inf" if k == 0 else f"f{k}"
 
@@ -25,6 +39,23 @@ def format_material(material: dict) -> str:
     return f"{material.get('distribution', '?')}, {material.get('facet', '?')} facets: {text}".rstrip(": ")
 
 
+def _estimator_line(table) -> str:
+    """How the table was estimated: estimator, analytic orders, fold, target."""
+    estimator = table.estimator
+    text = f"estimator {estimator}"
+    if table.order_source is not None and np.any(table.order_source == 1):
+        text += " (f1 is analytic: the exact V-cavity single-bounce model; orders >= 2 simulated)"
+    folded = table.folded if table.folded is not None else np.zeros(len(table.theta_i))
+    if np.all(folded == 1):
+        text += "; folded about the plane of incidence"
+    elif np.any(folded == 1):
+        text += f"; folded about the plane of incidence for {int(np.sum(folded == 1))} of {folded.size} directions"
+    target = table.attrs.get("target_error")
+    if isinstance(target, float) and math.isfinite(target):
+        text += f"; target error {target:g}"
+    return text
+
+
 def format_summary(table, verbose: bool = False) -> str:
     """Material, budget and per-direction energy balance of a :class:`~vcavity.io.table.Table`."""
     lines = [f"material: {format_material(table.material)}"]
@@ -32,27 +63,33 @@ def format_summary(table, verbose: bool = False) -> str:
         f"sensor: {table.sensor.n_cells} cells ({table.sensor.resolution}x{table.sensor.resolution}), "
         f"seed {table.seed}, orders {', '.join(_order_label(int(k)) for k in table.order)}"
     )
+    lines.append(_estimator_line(table))
     if verbose:
         lines.insert(0, f"table: {table.path} (format v{table.format_version}, vcavity {table.vcavity_version})")
         cfg = table.config if isinstance(table.config, dict) else {}
         sim = cfg.get("simulation", {})
-        if sim:
+        if isinstance(sim, dict) and sim:
             lines.append(f"bounce cap {sim.get('max_bounces')}, f_inf tracked: {sim.get('track_all_orders')}, "
                          f"config from {cfg.get('source', '?')}")
-        t_run = table.attrs.get("compute_time_s")
-        if t_run:
+        t_run = _number(table.attrs.get("compute_time_s"))
+        if t_run and t_run > 0:
             total = int(np.sum(table.paths))
-            lines.append(f"run time {float(t_run):.2f} s ({total / float(t_run) / 1e6:.2f} M paths/s), "
-                         f"compile/load {float(table.attrs.get('compile_time_s', 0.0)):.2f} s")
+            t_compile = _number(table.attrs.get("compile_time_s")) or 0.0
+            lines.append(f"run time {t_run:.2f} s ({total / t_run / 1e6:.2f} M paths/s), "
+                         f"compile/load {t_compile:.2f} s")
+    with_error = table.relative_error is not None and np.any(np.isfinite(table.relative_error))
     header = ["theta_i", "phi_i", "paths"] + [f"albedo {_order_label(int(k))}" for k in table.order] + [
-        "absorbed", "truncated"]
+        "absorbed", "truncated"] + (["rel. error f_inf"] if with_error else [])
     if np.any(table.degenerate > 0):
         header.append("degenerate")
     rows = []
     for d in range(len(table.theta_i)):
-        row = [f"{math.degrees(table.theta_i[d]):.2f}", f"{math.degrees(table.phi_i[d]):.2f}", f"{int(table.paths[d]):,}"]
+        row = [_angle(math.degrees(table.theta_i[d])), _angle(math.degrees(table.phi_i[d])), f"{int(table.paths[d]):,}"]
         row += [f"{table.albedo[d, j]:.6f}" for j in range(len(table.order))]
         row += [f"{table.absorbed[d]:.6f}", f"{table.truncated[d]:.2e}"]
+        if with_error:
+            row.append(f"{table.relative_error[d]:.2e}" + ("" if table.target_reached is None or
+                                                            table.target_reached[d] != 0 else " (cap)"))
         if np.any(table.degenerate > 0):
             row.append(f"{table.degenerate[d]:.2e}")
         rows.append(row)

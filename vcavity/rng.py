@@ -34,7 +34,11 @@ _TWO_M53 = 1.0 / 9007199254740992.0  # 2^-53
 BLOCK_SIZE = 4096
 
 
-@njit(cache=True, inline="always")
+# mix64 and next_uniform are plain jitted functions, not IR-inlined (inline="always"): a
+# kernel calls next_uniform at about ten sites, and Numba's IR inlining re-types each copy,
+# about 1 s of compile time per kernel variant; LLVM inlines the compiled function all the
+# same, so the walk runs as fast (docs/performance.md, "Compile time").
+@njit(cache=True)
 def mix64(z):
     """SplitMix64 finaliser: a bijective 64-bit hash (uint64 -> uint64)."""
     z = (z ^ (z >> _S30)) * _M1
@@ -42,7 +46,7 @@ def mix64(z):
     return z ^ (z >> _S31)
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def next_uniform(state):
     """Advance a stream; return ``(new_state, u)`` with ``u`` uniform in [0, 1).
 

@@ -16,9 +16,14 @@ from typing import Callable
 import numba
 import numpy as np
 
+from vcavity.checkpoint import RunState
 from vcavity.config import Material, RunConfig
+from vcavity.estimators import (ANALOG, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
+                                order_source, relative_error)
 from vcavity.facet import registry as facets
-from vcavity.kernels.trace import STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED, get_kernel
+from vcavity.kernels import paper
+from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
+                                   STAT_UNBINNED, get_kernel)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor import EqualAreaSensor
@@ -26,6 +31,14 @@ from vcavity.sensor import EqualAreaSensor
 #: Default paths per kernel call: large enough to amortise the call, small enough for a
 #: lively progress bar (about a quarter of a second on 2 cores).
 DEFAULT_CHUNK_BLOCKS = 512
+#: Target-error runs decide whether to stop after every this many blocks (about 2.6e5
+#: paths): part of the definition of such a run, like BLOCK_SIZE (not tied to chunking).
+TARGET_CHECK_BLOCKS = 64
+#: Exact-f1: the model's quadrature error per cell is kept below this many times the
+#: cell's statistical standard error (see Simulation._refine_models).
+MODEL_TOLERANCE_FACTOR = 0.1
+#: Length of a work unit's statistics vector (see Simulation.execute).
+N_TALLY_STATS = N_STATS + 3
 
 
 @dataclass(frozen=True)
@@ -54,7 +67,13 @@ def incident_vector(theta_i: float, phi_i: float) -> np.ndarray:
 
 @dataclass
 class RunResult:
-    """Integer outcome of a run, per incident direction (ready for ``write_table``)."""
+    """Outcome of a run, per incident direction (ready for ``write_table``).
+
+    ``counts`` are the raw integer counts (never folded; with the exact-f1 estimator the
+    first-order row is 0, those paths are in ``unbinned_paths``); ``brdf``,
+    ``brdf_stderr`` and ``albedo`` are what the table tabulates
+    (:mod:`vcavity.estimators`).
+    """
 
     theta_i: np.ndarray
     phi_i: np.ndarray
@@ -68,6 +87,36 @@ class RunResult:
     sensor: EqualAreaSensor
     compute_time_s: float
     compile_time_s: float
+    unbinned_paths: np.ndarray = None
+    brdf: np.ndarray = None
+    brdf_stderr: np.ndarray = None
+    albedo: np.ndarray = None
+    estimator: str = ANALOG
+    order_source: np.ndarray = None
+    folded: np.ndarray = None  # (incidence,) bool
+    relative_error: np.ndarray = None  # (incidence,) energy-weighted, of f_inf (nan without it)
+    target_reached: np.ndarray = None  # (incidence,) bool, target-error runs only
+    model_time_s: float = 0.0
+    model_error_ratio: float = 0.0  # largest model error / statistical error of a cell (exact-f1)
+    block_size: int = BLOCK_SIZE
+    lost_fractions: np.ndarray = None  # (incidence, 3) paper: weighted absorbed, truncated, degenerate
+
+
+@dataclass(frozen=True)
+class WorkUnit:
+    """Consecutive RNG blocks of one incident direction: what one kernel call traces."""
+
+    direction: int
+    first_block: int
+    n_blocks: int
+
+
+class RunInterrupted(Exception):
+    """A run stopped between chunks on request; ``state`` holds every finished chunk."""
+
+    def __init__(self, state: "RunState"):
+        super().__init__("run interrupted")
+        self.state = state
 
 
 class Simulation:
@@ -93,18 +142,27 @@ class Simulation:
             raise ValueError(f"chunk_blocks = {chunk_blocks}: must be >= 1")
         self.scene = Scene.of(config.material)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
-        self.kernel = get_kernel(self.scene.dist_kind, self.scene.facet_kind, self.scene.facet_variant)
+        self.weighted = config.estimator == PAPER
+        build = paper.get_paper_kernel if self.weighted else get_kernel
+        self.kernel = build(self.scene.dist_kind, self.scene.facet_kind, self.scene.facet_variant)
+        self.first_binned_order = 2 if config.estimator == EXACT_F1 else 1
         self.compile_time_s = 0.0
+        self.models: list | None = None  # exact-f1: (integrals, error) per direction
+        self.last_state: RunState | None = None  # the state of the last finished run
+        self.model_time_s = 0.0
 
     @property
     def total_paths(self) -> int:
-        return sum(d.paths for d in self.config.incidence)
+        """Paths planned: every direction's budget (with a target error, its cap)."""
+        return sum(self.config.path_budget(d) for d in self.config.incidence)
 
     def _call(self, incident, key, first_block, n_blocks, n_paths):
         c = self.config
-        return self.kernel(incident, key, first_block, n_blocks, n_paths, self.scene.params,
-                           self.scene.facet_data, c.effective_max_bounces, c.max_order, c.sensor_resolution,
-                           self.threads)
+        args = (incident, key, first_block, n_blocks, n_paths, self.scene.params, self.scene.facet_data,
+                c.effective_max_bounces, c.max_order, c.sensor_resolution, self.threads)
+        if self.weighted:
+            return self.kernel(*args)
+        return self.kernel(*args, self.first_binned_order)
 
     def compile(self) -> float:
         """Compile (or load from cache) the kernel; return the seconds it took."""
@@ -114,53 +172,294 @@ class Simulation:
         self.compile_time_s = time.perf_counter() - t0
         return self.compile_time_s
 
-    def run(self, on_progress: Callable[[int], None] | None = None) -> RunResult:
-        """Trace every path of every direction; ``on_progress(paths_done_now)`` after each chunk."""
-        if self.compile_time_s == 0.0:
-            self.compile()
-        numba.set_num_threads(self.threads)
+    def prepare_models(self) -> float:
+        """Exact-f1: the cell integrals of the single-bounce model for every direction.
+
+        Before any path is traced, each direction's model is computed to a first
+        tolerance, a tenth of the statistical error of a cell that receives an average
+        share ``N / n_cells`` of the budget (``0.1 / sqrt(N n_cells)``); a material whose
+        model cannot reach it is refused here. At the end of the run the cells are
+        refined to a tenth of their own statistical error (:meth:`_refine_models`).
+
+        Raises
+        ------
+        vcavity.analytic.single_bounce.ModelNotApplicable
+            The model cannot reach that accuracy for this material (one line).
+        """
+        if self.config.estimator != EXACT_F1 or self.models is not None:
+            return 0.0
+        from vcavity.analytic.exact_f1 import f1_cell_integrals
+
+        t0 = time.perf_counter()
+        models = []
+        for d in self.config.incidence:
+            tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(d) * self.sensor.n_cells)
+            models.append(f1_cell_integrals(self.config.material, incident_vector(d.theta_i, d.phi_i),
+                                            self.sensor, tolerance))
+        self.models = models
+        self.model_time_s = time.perf_counter() - t0
+        return self.model_time_s
+
+    def _refine_models(self, state: RunState) -> None:
+        """Refine each direction's model where its error exceeds a tenth of the cell's
+        statistical error ``max(sqrt(n (1 - n/N)), 1) / N`` (n: the cell's simulated
+        count of orders >= 2; one path at least), the requirement of physics.md sec. 11.
+
+        A model that cannot be refined further keeps its error, which ``brdf_stderr``
+        includes and ``model_error_ratio`` reports: finished paths are never discarded.
+        """
+        if self.models is None:
+            return
+        from vcavity.analytic.exact_f1 import f1_cell_integrals
+        from vcavity.analytic.single_bounce import ModelNotApplicable
+
+        t0 = time.perf_counter()
+        paths = self.paths_done(state)
+        for j, d in enumerate(self.config.incidence):
+            seen = state.tally[j, 0].sum(axis=0).astype(np.float64)  # every slot: orders >= 2 only
+            n = float(paths[j])
+            tolerance = MODEL_TOLERANCE_FACTOR * np.maximum(np.sqrt(seen * (1.0 - seen / n)), 1.0) / n
+            if np.all(self.models[j][1] <= tolerance):
+                continue
+            try:
+                self.models[j] = f1_cell_integrals(self.config.material, incident_vector(d.theta_i, d.phi_i),
+                                                   self.sensor, tolerance)
+            except ModelNotApplicable:
+                pass
+        self.model_time_s += time.perf_counter() - t0
+
+    def execute(self, unit: WorkUnit) -> np.ndarray:
+        """Trace one work unit; returns its integer tally summed over threads.
+
+        ``tally[0, k]`` counts exits of order k per cell (slot 0: beyond max_order); the
+        paper estimator adds ``tally[1]`` (Σ q) and ``tally[2]`` (Σ q^2). ``stats``:
+        absorbed, truncated, degenerate paths, the deepest path, unbinned (or zero-weight)
+        paths, then (paper) the weights absorbed, truncated and degenerate.
+        """
+        d = self.config.incidence[unit.direction]
+        out = self._call(incident_vector(d.theta_i, d.phi_i), direction_key(self.config.seed, d.theta_i, d.phi_i),
+                         unit.first_block, unit.n_blocks, self.config.path_budget(d))
+        stats = np.zeros(N_TALLY_STATS, np.int64)
+        if self.weighted:
+            weights, squares, counts, st = out
+            tally = np.stack([counts.sum(axis=0), weights.sum(axis=0), squares.sum(axis=0)])
+            stats[[STAT_ABSORBED, STAT_TRUNCATED, STAT_DEGENERATE]] = st[:, [
+                paper.PAPER_ABSORBED_PATHS, paper.PAPER_TRUNCATED_PATHS, paper.PAPER_DEGENERATE_PATHS]].sum(axis=0)
+            stats[STAT_MAX_BOUNCES] = st[:, paper.PAPER_MAX_BOUNCES].max()
+            stats[STAT_UNBINNED] = st[:, paper.PAPER_ZERO_WEIGHT].sum()
+            stats[N_STATS:] = st[:, [paper.PAPER_ABSORBED, paper.PAPER_TRUNCATED, paper.PAPER_DEGENERATE]].sum(axis=0)
+            return tally, stats
+        counts, st = out
+        stats[:N_STATS] = st.sum(axis=0)
+        stats[STAT_MAX_BOUNCES] = st[:, STAT_MAX_BOUNCES].max()
+        return counts.sum(axis=0)[None], stats
+
+    def _estimate(self, direction: int, tally, paths: int):
+        c = self.config
+        counts = _table_counts(tally[0], c.track_all_orders)
+        d = c.incidence[direction]
+        mirror = mirror_cells(self.sensor, d.phi_i_deg) if c.folds(d) else None
+        area = self.sensor.cell_projected_solid_angle
+        if self.weighted:
+            return counts, estimate_weighted(_table_counts(tally[1], c.track_all_orders),
+                                             _table_counts(tally[2], c.track_all_orders), paths,
+                                             paper.WEIGHT_SCALE, area, mirror=mirror)
+        model = self.models[direction] if self.models is not None else (None, None)
+        return counts, estimate_direction(counts, paths, c.orders, area, mirror=mirror,
+                                          f1_integrals=model[0], f1_error=model[1])
+
+    def new_state(self) -> RunState:
+        """The state of a run before its first path (what a checkpoint stores)."""
         c = self.config
         n_inc = len(c.incidence)
-        n_cells = self.sensor.n_cells
-        slots = np.zeros((n_inc, c.max_order + 1, n_cells), np.int64)
-        stats = np.zeros((n_inc, 4), np.int64)
+        depth = 3 if self.weighted else 1
+        return RunState(done_blocks=np.zeros(n_inc, np.int64), finished=np.zeros(n_inc, bool),
+                        reached=np.zeros(n_inc, bool),
+                        tally=np.zeros((n_inc, depth, c.max_order + 1, self.sensor.n_cells), np.int64),
+                        stats=np.zeros((n_inc, N_TALLY_STATS), np.int64), compute_time_s=0.0)
+
+    def paths_done(self, state: RunState) -> np.ndarray:
+        """Paths traced so far per direction."""
+        budgets = np.array([self.config.path_budget(d) for d in self.config.incidence], np.int64)
+        return np.minimum(state.done_blocks * BLOCK_SIZE, budgets)
+
+    def run(self, on_progress: Callable[..., None] | None = None, state: RunState | None = None,
+            on_checkpoint: Callable[[RunState], None] | None = None, checkpoint_every_s: float = 60.0,
+            should_stop: Callable[[], bool] | None = None, executor=None) -> RunResult:
+        """Trace every direction; ``on_progress(paths_done_now, relative_error)`` after each chunk.
+
+        With a target error each direction runs until the energy-weighted relative
+        standard error of f_inf is at most the target or its budget is spent, decided
+        from the counts after every ``TARGET_CHECK_BLOCKS`` blocks (absolute block
+        counts), so the table depends neither on threads nor on chunking nor on where a
+        run was interrupted and resumed.
+
+        Parameters
+        ----------
+        state : RunState, optional
+            Continue from a checkpoint (see :meth:`new_state`); it is updated in place.
+        on_checkpoint : callable, optional
+            Called with the state every ``checkpoint_every_s`` seconds, between chunks.
+        should_stop : callable, optional
+            Polled between chunks; when it returns True the run raises
+            :class:`RunInterrupted` carrying the state (all finished chunks in it).
+        executor : callable, optional
+            ``executor(simulation, units)`` -> iterable of ``(unit, execute(unit))`` in the
+            order of ``units`` (an iterator, to be consumed lazily) (e.g. :class:`vcavity.distributed.DaskExecutor`); default:
+            execute them here, one after the other.
+        """
+        run_units = executor if executor is not None else _execute_here
+        if self.compile_time_s == 0.0:
+            self.compile()
+        self.prepare_models()
+        numba.set_num_threads(self.threads)
+        state = state if state is not None else self.new_state()
+        c = self.config
         t0 = time.perf_counter()
-        for d_index, d in enumerate(c.incidence):
-            incident = incident_vector(d.theta_i, d.phi_i)
-            key = direction_key(c.seed, d.theta_i, d.phi_i)
-            n_blocks = -(-d.paths // BLOCK_SIZE)
-            for first in range(0, n_blocks, self.chunk_blocks):
-                n_here = min(self.chunk_blocks, n_blocks - first)
-                counts, st = self._call(incident, key, first, n_here, d.paths)
-                slots[d_index] += counts.sum(axis=0)
-                stats[d_index, :3] += st[:, :3].sum(axis=0)
-                stats[d_index, 3] = max(stats[d_index, 3], st[:, STAT_MAX_BOUNCES].max())
-                if on_progress is not None:
-                    on_progress(min((first + n_here) * BLOCK_SIZE, d.paths) - min(first * BLOCK_SIZE, d.paths))
-        compute = time.perf_counter() - t0
-        # order axis: 0 = all orders (f_inf, every slot), then 1..K
-        if c.track_all_orders:
-            counts = np.concatenate([slots.sum(axis=1, keepdims=True), slots[:, 1:]], axis=1)
-        else:
-            counts = slots[:, 1:].copy()
+        start_compute = state.compute_time_s
+        last_checkpoint = t0
+        for j, d in enumerate(c.incidence):
+            budget = c.path_budget(d)
+            while not state.finished[j]:
+                results = run_units(self, self.plan(j, state))
+                for unit, outcome in results:
+                    self.merge(state, unit, outcome)
+                    now = time.perf_counter()
+                    state.compute_time_s = start_compute + (now - t0)
+                    if on_progress is not None:
+                        on_progress(_paths_in(unit.first_block, unit.n_blocks, budget), self._current_error(j, state))
+                    if on_checkpoint is not None and now - last_checkpoint >= checkpoint_every_s:
+                        on_checkpoint(state)
+                        last_checkpoint = time.perf_counter()
+                    if should_stop is not None and not state.finished.all() and should_stop():
+                        getattr(results, "close", lambda: None)()  # cancels what a cluster still runs
+                        raise RunInterrupted(state)
+        self.last_state = state
+        return self.result(state)
+
+    def _check_block(self, j: int, done: int) -> int:
+        """The block count at which direction ``j`` is next checked: its end, or with a
+        target error the next multiple of ``TARGET_CHECK_BLOCKS`` (absolute, so the same
+        for any chunking and any resume point)."""
+        n_blocks = -(-self.config.path_budget(self.config.incidence[j]) // BLOCK_SIZE)
+        if self.config.target_error is None:
+            return n_blocks
+        return min(n_blocks, (done // TARGET_CHECK_BLOCKS + 1) * TARGET_CHECK_BLOCKS)
+
+    def plan(self, j: int, state: RunState):
+        """The work units of direction ``j`` from where ``state`` stands to its next check,
+        in block order: ``chunk_blocks`` blocks each (generated lazily: budgets reach 2^62)."""
+        done = int(state.done_blocks[j])
+        check = self._check_block(j, done)
+        return (WorkUnit(j, first, min(self.chunk_blocks, check - first)) for first in range(done, check, self.chunk_blocks))
+
+    def merge(self, state: RunState, unit: WorkUnit, outcome) -> None:
+        """Add a unit's outcome to ``state`` (units of a direction arrive in block order, so
+        the state is always the tally of a prefix of its blocks), then apply the stop rule
+        at a check block: the direction ends at its budget, or when the energy-weighted
+        relative error of f_inf is at most the target."""
+        j = unit.direction
+        unit_tally, unit_stats = outcome
+        if unit.first_block != state.done_blocks[j]:
+            raise ValueError(f"unit {unit} merged out of order (done_blocks = {int(state.done_blocks[j])})")
+        state.tally[j] += unit_tally
+        deepest = max(state.stats[j, STAT_MAX_BOUNCES], unit_stats[STAT_MAX_BOUNCES])
+        state.stats[j] += unit_stats
+        state.stats[j, STAT_MAX_BOUNCES] = deepest
+        done = unit.first_block + unit.n_blocks
+        state.done_blocks[j] = done
+        check = self._check_block(j, unit.first_block)
+        if done != check:
+            return
+        c = self.config
+        budget = c.path_budget(c.incidence[j])
+        if done * BLOCK_SIZE >= budget:
+            state.finished[j] = True
+        if c.target_error is not None:
+            paths = min(done * BLOCK_SIZE, budget)
+            if _relative_error(*self._estimate(j, state.tally[j], paths), c.orders, self.sensor) <= c.target_error:
+                state.finished[j] = state.reached[j] = True
+
+    def _current_error(self, j: int, state: RunState) -> float:
+        if self.config.target_error is None:
+            return math.nan
+        paths = int(self.paths_done(state)[j])
+        return _relative_error(*self._estimate(j, state.tally[j], paths), self.config.orders, self.sensor)
+
+    def result(self, state: RunState) -> RunResult:
+        """The tabulated outcome of a finished run state."""
+        self._refine_models(state)
+        c = self.config
+        n_inc = len(c.incidence)
+        shape = (n_inc, len(c.orders), self.sensor.n_cells)
+        counts, brdf, stderr = np.zeros(shape, np.int64), np.zeros(shape), np.zeros(shape)
+        albedo = np.zeros((n_inc, len(c.orders)))
+        error = np.full(n_inc, np.nan)
+        paths = self.paths_done(state)
+        stats = state.stats
+        for j in range(n_inc):
+            counts[j], estimate = self._estimate(j, state.tally[j], int(paths[j]))
+            brdf[j], stderr[j], albedo[j] = estimate.brdf, estimate.brdf_stderr, estimate.albedo
+            if c.track_all_orders:
+                error[j] = _relative_error(counts[j], estimate, c.orders, self.sensor)
         return RunResult(
             theta_i=np.array([d.theta_i for d in c.incidence]),
             phi_i=np.array([d.phi_i for d in c.incidence]),
             order=np.array(c.orders, dtype=np.int64),
-            counts=counts,
-            paths=np.array([d.paths for d in c.incidence], dtype=np.int64),
+            counts=counts, paths=paths,
             absorbed_paths=stats[:, STAT_ABSORBED].copy(),
             truncated_paths=stats[:, STAT_TRUNCATED].copy(),
             degenerate_paths=stats[:, STAT_DEGENERATE].copy(),
-            max_bounces_seen=stats[:, 3].copy(),
-            sensor=self.sensor,
-            compute_time_s=compute,
-            compile_time_s=self.compile_time_s,
+            max_bounces_seen=stats[:, STAT_MAX_BOUNCES].copy(),
+            unbinned_paths=stats[:, STAT_UNBINNED].copy(),
+            sensor=self.sensor, compute_time_s=state.compute_time_s, compile_time_s=self.compile_time_s,
+            brdf=brdf, brdf_stderr=stderr, albedo=albedo, estimator=c.estimator,
+            order_source=order_source(c.orders, c.estimator),
+            folded=np.array([c.folds(d) for d in c.incidence]),
+            relative_error=error, target_reached=state.reached.copy() if c.target_error is not None else None,
+            model_time_s=self.model_time_s, model_error_ratio=self._model_error_ratio(state),
+            lost_fractions=stats[:, N_STATS:] / (paper.WEIGHT_SCALE * paths[:, None]) if self.weighted else None,
         )
+
+    def _model_error_ratio(self, state: RunState) -> float:
+        """Largest ratio of a cell's model error to its statistical error (see _refine_models)."""
+        if self.models is None:
+            return 0.0
+        paths = self.paths_done(state)
+        worst = 0.0
+        for j, (_, model_error) in enumerate(self.models):
+            n = float(paths[j])
+            seen = state.tally[j, 0].sum(axis=0).astype(np.float64)
+            statistical = np.maximum(np.sqrt(seen * (1.0 - seen / n)), 1.0) / n
+            worst = max(worst, float(np.max(model_error / statistical)))
+        return worst
+
+
+def _execute_here(simulation: Simulation, units):
+    """The local executor: each unit in turn, in this process (a generator, so a stop
+    between units leaves the rest untraced)."""
+    for unit in units:
+        yield unit, simulation.execute(unit)
+
+
+def _table_counts(slots, track_all_orders: bool):
+    """The order axis of a table from kernel slots (slot 0 = beyond max_order):
+    0 = every order (f_inf), then 1..K; without f_inf only 1..K."""
+    if track_all_orders:
+        return np.concatenate([slots.sum(axis=0, keepdims=True), slots[1:]], axis=0)
+    return slots[1:].copy()
+
+
+def _relative_error(counts, estimate, orders, sensor) -> float:
+    return relative_error(estimate, orders, sensor.cell_projected_solid_angle)
+
+
+def _paths_in(first_block: int, n_blocks: int, budget: int) -> int:
+    return min((first_block + n_blocks) * BLOCK_SIZE, budget) - min(first_block * BLOCK_SIZE, budget)
 
 
 def simulate(config: RunConfig, threads: int | None = None, chunk_blocks: int | None = None,
-             on_progress: Callable[[int], None] | None = None) -> RunResult:
+             on_progress: Callable[..., None] | None = None) -> RunResult:
     """Run a whole config; see :class:`Simulation`."""
     sim = Simulation(config, threads=threads, chunk_blocks=chunk_blocks)
     return sim.run(on_progress)

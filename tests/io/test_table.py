@@ -39,7 +39,7 @@ def test_round_trip_values(written, sensor, material, config):
                                   sensor.cell_projected_solid_angle)
     assert table.material == {k: v for k, v in material.items() if v is not None}
     assert table.config == config
-    assert table.seed == 7 and table.format_version == FORMAT_VERSION == 2
+    assert table.seed == 7 and table.format_version == FORMAT_VERSION == 3
     assert table.vcavity_version == vcavity.__version__
     assert table.attrs["block_size"] == 4096 and table.attrs["max_bounces"] == 1000
     assert table.attrs["compute_time_s"] == 1.5 and table.attrs["compile_time_s"] == 0.25
@@ -249,9 +249,9 @@ def test_missing_dataset(written):
 def test_unsupported_version(written):
     path, _ = written
     with h5py.File(path, "a") as h5:
-        h5.attrs["format_version"] = 3
+        h5.attrs["format_version"] = 4
     message = _single_line_error(path, "unsupported format_version")
-    assert message == f"unsupported format_version 3 in {path} (this vcavity reads 1, 2)"
+    assert message == f"unsupported format_version 4 in {path} (this vcavity reads 1, 2, 3)"
 
 
 def test_inconsistent_shape(written):

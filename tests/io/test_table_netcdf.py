@@ -94,7 +94,7 @@ def test_xarray_selection_idioms(table_path, table, engine):
 def test_xarray_attributes_and_material_group(table_path, table, engine, material):
     with xr.open_dataset(table_path, engine=engine) as ds:
         attrs = ds.attrs
-        assert attrs["format"] == "vcavity-brdf-table" and attrs["format_version"] == 2
+        assert attrs["format"] == "vcavity-brdf-table" and attrs["format_version"] == 3
         assert attrs["seed"] == 2**64 - 1
         assert json.loads(attrs["config"]) == table.config
         for name in ("vcavity_version", "created_utc", "sensor_partition", "block_size",

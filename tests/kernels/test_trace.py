@@ -80,7 +80,7 @@ def test_one_kernel_per_scene_and_its_output_layout():
     incident = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
     n_paths, max_order, resolution, n_slots = BLOCK_SIZE + 100, 2, 5, 2
     counts, stat = kernel(incident, np.uint64(99), 0, 2, n_paths, params, facet_data, 50, max_order,
-                          resolution, n_slots)
+                          resolution, n_slots, 1)
     assert counts.shape == (n_slots, max_order + 1, resolution * resolution) and counts.dtype == np.int64
     assert stat.shape == (n_slots, trace.N_STATS) and stat.dtype == np.int64
     assert stat[:, trace.STAT_ABSORBED].sum() == 0  # mirror facets
@@ -88,5 +88,6 @@ def test_one_kernel_per_scene_and_its_output_layout():
     assert exits + stat[:, [trace.STAT_TRUNCATED, trace.STAT_DEGENERATE]].sum() == n_paths
     assert stat[:, trace.STAT_MAX_BOUNCES].max() <= 50
     # no block, no path
-    counts, stat = kernel(incident, np.uint64(99), 0, 0, 0, params, facet_data, 50, max_order, resolution, n_slots)
+    counts, stat = kernel(incident, np.uint64(99), 0, 0, 0, params, facet_data, 50, max_order, resolution, n_slots,
+                          1)
     assert counts.sum() == 0 and stat.sum() == 0

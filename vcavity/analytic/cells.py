@@ -19,8 +19,14 @@ import math
 
 import numpy as np
 
-from vcavity.analytic.quadrature import subcell_quadrature
+from vcavity.analytic.quadrature import radius_split_quadrature, subcell_quadrature
 from vcavity.analytic.single_bounce import SingleBounceModel
+from vcavity.analytic.specular_peak import (
+    DEFAULT_AZIMUTH_NODES,
+    DEFAULT_RADIAL_NODES,
+    peak_cells,
+    peak_integrals,
+)
 from vcavity.sensor import EqualAreaSensor
 
 DEFAULT_BODY_SUB = 4
@@ -53,25 +59,43 @@ def _hard_cells(cells, resolution):
     return (ix == iy) | (ix + iy == last) | (ix == 0) | (iy == 0) | (ix == last) | (iy == last)
 
 
-def _integrate(projected, incident, sensor, n_sub, cells, chunk_points=262144):
+def _integrate(projected, incident, sensor, n_sub, cells, chunk_points=262144, kink_z=None, hard_sub=8,
+               corner_sub=16):
     """``Σ_q w_q projected(i, o_q)`` per cell, in chunks of cells to bound memory.
 
     Diagonal and horizon cells (:func:`_hard_cells`) get at least 8 x 8 points: with
     4 x 4 the body term of the horizon corner cells was off by 1.6e-3 (2 x 2 points per
     Duffy triangle) and of other horizon cells by 2.4e-5; with 8 x 8 by 1e-6 except the
-    four corner cells (1.7e-5), which get 16 x 16 (2.4e-7).
+    four corner cells (1.7e-5), which get 16 x 16 (2.4e-7) (``hard_sub``, ``corner_sub``:
+    the error estimates of :mod:`vcavity.analytic.exact_f1` halve them). With ``kink_z``
+    the off-diagonal cells that the circle ``z = kink_z`` crosses are cut along it
+    (:func:`~vcavity.analytic.quadrature.radius_split_quadrature`, ``max(n_sub, hard_sub)``
+    points on each side).
     """
     cells = np.arange(sensor.n_cells) if cells is None else np.asarray(cells, dtype=np.int64)
     out = np.empty(cells.size)
-    hard = _hard_cells(cells, sensor.resolution)
-    ix, iy = cells % sensor.resolution, cells // sensor.resolution
-    corner = ((ix == 0) | (ix == sensor.resolution - 1)) & ((iy == 0) | (iy == sensor.resolution - 1))
-    for group, n in ((~hard, n_sub), (hard & ~corner, max(n_sub, 8)), (corner, max(n_sub, 16))):
+    n = sensor.resolution
+    hard = _hard_cells(cells, n)
+    ix, iy = cells % n, cells // n
+    last = n - 1
+    corner = ((ix == 0) | (ix == last)) & ((iy == 0) | (iy == last))
+    split = np.zeros(cells.size, dtype=bool)
+    if kink_z is not None:
+        radius = math.sqrt(min(max(1.0 - kink_z, 0.0), 1.0))
+        u_centre, v_centre = -1.0 + (2 * ix + 1.0) / n, -1.0 + (2 * iy + 1.0) / n
+        r_centre = np.maximum(np.abs(u_centre), np.abs(v_centre))
+        diagonal = (ix == iy) | (ix + iy == last)
+        split = ~diagonal & (np.abs(r_centre - radius) < 1.0 / n)
+    for group, size in ((~hard & ~split, n_sub), (hard & ~corner & ~split, max(n_sub, hard_sub)),
+                        (corner, max(n_sub, corner_sub)), (split, max(n_sub, hard_sub) if kink_z is not None else n_sub)):
         positions = np.flatnonzero(group)
-        per_chunk = max(1, chunk_points // (n * n))
+        per_chunk = max(1, chunk_points // (2 * size * size))
         for start in range(0, positions.size, per_chunk):
             chosen = positions[start:start + per_chunk]
-            directions, weights = subcell_quadrature(sensor, int(n), cells=cells[chosen])
+            if group is split:
+                directions, weights = radius_split_quadrature(sensor, int(size), cells[chosen], radius)
+            else:
+                directions, weights = subcell_quadrature(sensor, int(size), cells=cells[chosen])
             values = projected(incident, directions.reshape(-1, 3)).reshape(weights.shape)
             out[chosen] = np.sum(values * weights, axis=1)
     return out
@@ -94,7 +118,8 @@ def cell_integrals(model, incident, sensor: EqualAreaSensor, cells=None, n_sub=N
         Sub-points per cell side for a generic model (default 8).
     n_sub_body, n_sub_specular : int, optional
         For a :class:`SingleBounceModel`: sub-points for the body term (default 4) and
-        the specular term (default :func:`specular_subpoints`).
+        the specular term (default :func:`specular_subpoints`; a lobe too narrow for it is
+        integrated near its peak in the half-vector domain, :func:`specular_integrals`).
 
     Returns
     -------
@@ -104,17 +129,63 @@ def cell_integrals(model, incident, sensor: EqualAreaSensor, cells=None, n_sub=N
     """
     incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
     if isinstance(model, SingleBounceModel):
-        total = 0.0
+        size = sensor.n_cells if cells is None else np.asarray(cells).size
+        total = np.zeros(size)
         if model.has_specular:
-            n_spec = n_sub_specular or specular_subpoints(model, sensor)
-            total = total + _integrate(model.specular_projected, incident, sensor, n_spec, cells)
+            total += specular_integrals(model, incident, sensor, cells, n_sub=n_sub_specular)
         if model.body_factor > 0.0:
-            total = total + _integrate(model.body_projected, incident, sensor, n_sub_body, cells)
-        if np.isscalar(total):
-            size = sensor.n_cells if cells is None else np.asarray(cells).size
-            return np.zeros(size)
+            total += _integrate(model.body_projected, incident, sensor, n_sub_body, cells)
         return total
     return _integrate(model.projected, incident, sensor, n_sub or DEFAULT_SUB, cells)
+
+
+def specular_integrals(model: SingleBounceModel, incident, sensor: EqualAreaSensor, cells=None, n_sub=None,
+                       n_azimuth=DEFAULT_AZIMUTH_NODES, n_radial=DEFAULT_RADIAL_NODES, peak=None) -> np.ndarray:
+    """``∫_c f_s cos θ_o dω_o`` per cell (physics.md sec. 6-7).
+
+    The sub-cell rule (``n_sub`` points, default ``MIN_SPECULAR_SUB``) everywhere
+    except in the peak cells (:func:`~vcavity.analytic.specular_peak.peak_cells`), where
+    the lobe is finer than that rule resolves (a lobe narrower than a cell, Beckmann
+    alpha 1e-4 or Phong exponent 1e300; an anisotropic ridge; the wedge of any lobe at
+    grazing incidence): those are integrated by rays in the half-vector domain
+    (:func:`~vcavity.analytic.specular_peak.peak_integrals`).
+
+    Parameters
+    ----------
+    model : SingleBounceModel
+    incident : array_like (3,)
+    sensor : EqualAreaSensor
+    cells : array_like of int, optional
+        Cells to integrate (default all).
+    n_sub : int, optional
+        Sub-points per cell side of the sub-cell rule.
+    n_azimuth, n_radial : int
+        Gauss-Legendre nodes per piece of the peak rays.
+    peak : array_like of int, optional
+        The peak cells (sorted; default :func:`~vcavity.analytic.specular_peak.peak_cells`).
+
+    Returns
+    -------
+    ndarray (n_cells,) or (len(cells),)
+    """
+    incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
+    wanted = np.arange(sensor.n_cells) if cells is None else np.asarray(cells, dtype=np.int64).ravel()
+    out = np.zeros(wanted.size)
+    if not model.has_specular:
+        return out
+    n_sub = n_sub or MIN_SPECULAR_SUB
+    peak = peak_cells(model, incident, sensor) if peak is None else np.asarray(peak, dtype=np.int64)
+    in_peak = np.isin(wanted, peak)
+    if np.any(in_peak):
+        values = peak_integrals(model, incident, sensor, peak, n_azimuth, n_radial)
+        out[in_peak] = values[np.searchsorted(peak, wanted[in_peak])]
+    if np.any(~in_peak):
+        # V-cavity masking: G1_V(o, h) < G1_V(i, h) exactly where o_z < i_z (o.h = i.h, IL eq. 14),
+        # a kink of the specular term on the circle z = i_z
+        kink = float(incident[2]) if model.masking == "vcavity" else None
+        out[~in_peak] = _integrate(model.specular_projected, incident, sensor, n_sub, wanted[~in_peak],
+                                   kink_z=kink)
+    return out
 
 
 def cell_average(model, incident, sensor: EqualAreaSensor, cells=None, **options) -> np.ndarray:

@@ -139,11 +139,11 @@ class ChiSquareResult:
         return self.testable and not self.failure and self.p_value >= level
 
     def verdict(self, level: float) -> str:
-        """``"pass"``, ``"FAIL (reason)"`` or ``"NOT TESTABLE (...)"``."""
-        if not self.testable:
-            return f"NOT TESTABLE ({self.n_categories} category: a chi-square needs two)"
+        """``"pass"``, ``"FAIL (reason)"`` or ``"NOT TESTABLE (...)"``; a failure wins."""
         if self.failure:
             return f"FAIL ({self.failure})"
+        if not self.testable:
+            return f"NOT TESTABLE ({self.n_categories} category: a chi-square needs two)"
         return "pass" if self.p_value >= level else f"FAIL (p = {self.p_value:.3g} < {level:.3g})"
 
 

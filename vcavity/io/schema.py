@@ -9,6 +9,12 @@ h5netcdf, xarray) read as a netCDF dataset without options:
   ``incidence``; ``theta_o``, ``phi_o`` on ``cell``) are ordinary datasets on it, named as
   auxiliary coordinates by the CF ``coordinates`` attribute of every data variable.
 
+Format version 3 adds what the estimators need (``unbinned_paths``, ``order_source``,
+``folded``, ``relative_error``, ``target_reached`` and the root attributes ``estimator``,
+``target_error``): ``brdf`` is no longer always ``counts / (paths Ω⊥)`` (exact-f1 adds the
+analytic f1; folded directions average mirror cells). Version 2 tables are read with the
+analog, unfolded values of these.
+
 Format version 1 attached two scales (``theta_i`` and ``phi_i``) to the incidence axis and
 had no degree or outgoing angles; it is still read (:data:`V1_DATASETS`).
 """
@@ -16,9 +22,9 @@ had no degree or outgoing angles; it is still read (:data:`V1_DATASETS`).
 from __future__ import annotations
 
 FORMAT_NAME = "vcavity-brdf-table"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 #: Versions open_table reads.
-READABLE_VERSIONS = (1, 2)
+READABLE_VERSIONS = (1, 2, 3)
 
 #: Axis -> its dimension-scale dataset (same name) comes first in the file, in this order.
 AXES = ("incidence", "order", "cell", "xyz")
@@ -57,13 +63,20 @@ DATASETS = {
               "Azimuth from +x toward +y of the direction at the centre of each sensor cell, "
               "in (-pi, pi] (0 at the pole)"),
     "brdf": (("incidence", "order", "cell"), "1/sr", "cell-averaged BRDF",
-             "Cell-averaged cosine-weighted BRDF (1/Ω⊥_c) ∫_c f_k(i,o) cos(theta_o) dω_o, "
-             "estimated as counts / (paths * cell_projected_solid_angle)"),
+             "Cell-averaged cosine-weighted BRDF (1/Ω⊥_c) ∫_c f_k(i,o) cos(theta_o) dω_o: "
+             "analog estimator counts / (paths * cell_projected_solid_angle); exact-f1 adds "
+             "the analytic f1 (order_source); folded directions (folded = 1) hold the mean "
+             "of a cell and its mirror cell about the plane of incidence"),
     "brdf_stderr": (("incidence", "order", "cell"), "1/sr", "standard error of brdf",
-                    "Standard error of brdf (multinomial): sqrt(counts (1 - counts/paths)) "
-                    "/ (paths * cell_projected_solid_angle)"),
+                    "Standard error of brdf: binomial sqrt(n (1 - n/paths)) / (paths * Ω⊥) "
+                    "of the cell's (folded: the cell pair's) simulated count, with the "
+                    "analytic f1's quadrature error added in quadrature"),
     "counts": (("incidence", "order", "cell"), "1", "path count",
-               "Number of paths of this order that exited through this cell"),
+               "Number of paths of this order that exited through this cell (raw, never "
+               "folded; exact-f1: first-order exits are not binned, see unbinned_paths)"),
+    "order_source": (("order",), "1", "how each order was obtained",
+                     "0 = simulated, 1 = analytic (the exact V-cavity single-bounce model, "
+                     "estimator exact-f1), 2 = analytic f1 plus simulated orders >= 2"),
     "albedo": (("incidence", "order"), "1", "albedo per order",
                "Fraction of paths leaving with this order: sum over cells of brdf * "
                "cell_projected_solid_angle"),
@@ -76,6 +89,18 @@ DATASETS = {
                    "Fraction of paths the walk could not trace (numerically degenerate geometry)"),
     "paths": (("incidence",), "1", "paths simulated",
               "Number of paths simulated for this incident direction"),
+    "unbinned_paths": (("incidence",), "1", "first-order exits not binned",
+                       "Paths that left after one bounce, counted but not binned because "
+                       "f1 is analytic (estimator exact-f1); 0 otherwise"),
+    "folded": (("incidence",), "1", "mirror-symmetry fold applied",
+               "1 if brdf of this direction averages each cell with its mirror cell about "
+               "the plane of incidence, else 0"),
+    "relative_error": (("incidence",), "1", "relative standard error of f_inf",
+                       "Energy-weighted mean relative standard error of f_inf over the cells, "
+                       "sum(brdf_stderr * Ω⊥) / sum(brdf * Ω⊥) (NaN without f_inf)"),
+    "target_reached": (("incidence",), "1", "target error reached",
+                       "Target-error runs: 1 if relative_error reached target_error, 0 if "
+                       "the path cap stopped the direction first; -1 without a target"),
     "max_bounces_seen": (("incidence",), "1", "largest bounce count",
                          "Largest number of bounces made by any path of this incident direction"),
     "cell_center": (("cell", "xyz"), "1", "cell centre direction",
@@ -92,6 +117,14 @@ V1_DATASETS = ("theta_i", "phi_i", "order", "cell", "xyz", "brdf", "brdf_stderr"
                "cell_center", "cell_solid_angle", "cell_projected_solid_angle")
 #: Datasets a format-2 table adds.
 V2_ADDED_DATASETS = ("incidence", "theta_i_deg", "phi_i_deg", "theta_o", "phi_o")
+#: Datasets a format-3 table adds.
+V3_ADDED_DATASETS = ("order_source", "unbinned_paths", "folded", "relative_error", "target_reached")
+#: Flag attributes (CF flag_values / flag_meanings) of the int8 flag datasets.
+FLAGS = {
+    "order_source": ((0, 1, 2), "simulated analytic analytic_plus_simulated"),
+    "folded": ((0, 1), "unfolded folded"),
+    "target_reached": ((-1, 0, 1), "no_target not_reached reached"),
+}
 
 REQUIRED_ROOT_ATTRS = ("vcavity_version", "sensor_partition", "sensor_resolution", "n_cells",
                        "seed", "block_size", "max_bounces", "config")

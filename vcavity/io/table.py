@@ -15,6 +15,7 @@ import errno
 import json
 import os
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -29,6 +30,7 @@ from vcavity.io.schema import (
     REQUIRED_ROOT_ATTRS,
     ROOT_ATTRS_AS_FIELDS,
     V1_DATASETS,
+    V3_ADDED_DATASETS,
 )
 from vcavity.io.writer import write_table
 from vcavity.sensor import EqualAreaSensor
@@ -43,6 +45,8 @@ class Table:
     """Everything a vcavity table holds, read into memory (arrays are read-only).
 
     Axes: incidence ``n_i``, order ``n_k``, cell ``n_c``; see docs/hdf5-format.md.
+    A table is also a continuous BRDF for renderers: :meth:`eval`, :meth:`sample`,
+    :meth:`pdf`, :meth:`albedo_at` (docs/table-api.md).
 
     Attributes
     ----------
@@ -71,7 +75,18 @@ class Table:
     seed, format_version : int
     vcavity_version : str
     attrs : dict
-        The remaining root attributes (``block_size``, ``max_bounces``, ...).
+        The remaining root attributes (``block_size``, ``max_bounces``, ``estimator``,
+        ``target_error``, ...).
+    order_source : ndarray of int8 (n_k,)
+        0 simulated, 1 analytic, 2 analytic f1 plus simulated orders (format 3).
+    unbinned_paths : ndarray of int64 (n_i,)
+        Exact-f1: paths that left after one bounce, counted, not binned.
+    folded : ndarray of int8 (n_i,)
+        1 where brdf averages mirror cells about the plane of incidence.
+    relative_error : ndarray (n_i,)
+        Energy-weighted relative standard error of f_inf (NaN without f_inf or before v3).
+    target_reached : ndarray of int8 (n_i,)
+        -1 without a target error, else 0 / 1.
     """
 
     path: Path
@@ -101,6 +116,22 @@ class Table:
     format_version: int
     vcavity_version: str
     attrs: dict = field(default_factory=dict)
+    order_source: np.ndarray | None = None
+    unbinned_paths: np.ndarray | None = None
+    folded: np.ndarray | None = None
+    relative_error: np.ndarray | None = None
+    target_reached: np.ndarray | None = None
+
+    @property
+    def estimator(self) -> str:
+        """``analog`` or ``exact-f1`` (tables before format 3: ``analog``)."""
+        return str(self.attrs.get("estimator", "analog"))
+
+    def is_analytic(self, k: int) -> bool:
+        """Whether order ``k`` of this table comes (at least partly) from the analytic model."""
+        if self.order_source is None:
+            return False
+        return bool(self.order_source[self.order_index(k)] != 0)
 
     def order_index(self, k: int) -> int:
         """Position of bounce order ``k`` on the order axis (``self.order[j] == k``).
@@ -115,6 +146,32 @@ class Table:
             present = ", ".join(str(int(o)) for o in self.order)
             raise ValueError(f"order {k} is not in table {self.path} (orders present: {present})")
         return int(hits[0])
+
+    # The renderer API (docs/table-api.md) lives in vcavity.brdf (plain NumPy, no Numba);
+    # imported on first use so that reading a table needs none of it.
+    @cached_property
+    def interpolant(self):
+        """The table as a continuous BRDF, :class:`vcavity.brdf.TableBRDF` (built once)."""
+        from vcavity.brdf import TableBRDF
+
+        return TableBRDF(self)
+
+    def eval(self, wi, wo, order=0):
+        """Interpolated BRDF f(wi, wo) in 1/sr; see :meth:`vcavity.brdf.TableBRDF.eval`."""
+        return self.interpolant.eval(wi, wo, order)
+
+    def pdf(self, wi, wo, order=0):
+        """Density of :meth:`sample` in 1/sr; see :meth:`vcavity.brdf.TableBRDF.pdf`."""
+        return self.interpolant.pdf(wi, wo, order)
+
+    def sample(self, wi, u1, u2, order=0):
+        """``(wo, weight, pdf)`` from the table; see :meth:`vcavity.brdf.TableBRDF.sample`."""
+        return self.interpolant.sample(wi, u1, u2, order)
+
+    def albedo_at(self, wi, order=0):
+        """Directional albedo at any ``wi`` (``self.albedo`` is the stored (n_i, n_k) array);
+        see :meth:`vcavity.brdf.TableBRDF.albedo`."""
+        return self.interpolant.albedo(wi, order)
 
 
 def _python_value(value) -> Any:
@@ -148,7 +205,9 @@ def open_table(path) -> Table:
     location = Path(os.fspath(path))
     if not location.exists():
         raise FileNotFoundError(errno.ENOENT, "no such vcavity table", str(location))
-    if location.is_dir() or not h5py.is_hdf5(location):
+    if not location.is_file():  # a folder is no table, and reading a FIFO would block
+        raise TableFormatError(f"not a vcavity table: {location} (not a regular file)")
+    if not h5py.is_hdf5(location):
         raise TableFormatError(f"not a vcavity table: {location} (not an HDF5 file)")
     try:
         with h5py.File(location, "r") as h5:
@@ -170,7 +229,8 @@ def _read(h5: h5py.File, location: Path) -> Table:
         readable = ", ".join(str(v) for v in READABLE_VERSIONS)
         raise TableFormatError(f"unsupported format_version {version} in {location} "
                                f"(this vcavity reads {readable})")
-    names = V1_DATASETS if version == 1 else tuple(DATASETS)
+    names = V1_DATASETS if version == 1 else tuple(DATASETS) if version >= 3 else tuple(
+        name for name in DATASETS if name not in V3_ADDED_DATASETS)
     for name in names:
         if not isinstance(h5.get(name), h5py.Dataset):
             raise TableFormatError(f"missing dataset '{name}' in {location}")
@@ -179,12 +239,14 @@ def _read(h5: h5py.File, location: Path) -> Table:
 
     data = {name: h5[name][()] for name in names if name not in ("incidence", "cell", "xyz")}
     sizes = {"incidence": data["theta_i"].size, "order": data["order"].size,
-             "cell": int(root["n_cells"]), "xyz": 3}
+             "cell": _int_attribute(root, "n_cells", location, 1), "xyz": 3}
     for name, array in data.items():
         expected = tuple(sizes[axis] for axis in DATASETS[name][0])
         if array.shape != expected:
             raise TableFormatError(f"dataset '{name}' has shape {array.shape}, expected "
                                    f"{expected} in {location}")
+    _check_values(data, location)
+    seed = _int_attribute(root, "seed", location, 0, 2**64 - 1)
     try:
         config = json.loads(_python_value(root["config"]))
     except (TypeError, ValueError) as exc:
@@ -193,13 +255,18 @@ def _read(h5: h5py.File, location: Path) -> Table:
     if version == 1:  # v1 had no degrees and no outgoing angles: derive them
         data.update(theta_i_deg=np.degrees(data["theta_i"]), phi_i_deg=np.degrees(data["phi_i"]),
                     theta_o=np.array(sensor.cell_theta), phi_o=np.array(sensor.cell_phi))
+    if version < 3:  # before the estimators: analog, unfolded, no target
+        n_i, n_k = sizes["incidence"], sizes["order"]
+        data.update(order_source=np.zeros(n_k, np.int8), unbinned_paths=np.zeros(n_i, np.int64),
+                    folded=np.zeros(n_i, np.int8), relative_error=np.full(n_i, np.nan),
+                    target_reached=np.full(n_i, -1, np.int8))
     for array in data.values():
         array.setflags(write=False)
     return Table(
         path=location, sensor=sensor,
         material={key: _python_value(value) for key, value in h5["material"].attrs.items()
                   if key != "description"},
-        config=config, seed=int(_python_value(root["seed"])), format_version=int(version),
+        config=config, seed=seed, format_version=int(version),
         vcavity_version=str(_python_value(root["vcavity_version"])),
         attrs={key: _python_value(value) for key, value in root.items()
                if key not in ROOT_ATTRS_AS_FIELDS},
@@ -209,7 +276,9 @@ def _read(h5: h5py.File, location: Path) -> Table:
 
 def _rebuild_sensor(root, cell_center: np.ndarray, location: Path) -> EqualAreaSensor:
     """Rebuild the run's sensor and check that it reproduces the stored cell centres."""
-    resolution = int(_python_value(root["sensor_resolution"]))
+    # An N x N sensor has N^2 cells: bounding N by the stored cell count keeps a corrupt
+    # attribute from building a huge sensor before the comparison below refuses it.
+    resolution = _int_attribute(root, "sensor_resolution", location, 1, cell_center.shape[0])
     sensor = EqualAreaSensor(resolution)
     partition = _python_value(root["sensor_partition"])
     if partition != sensor.partition:
@@ -220,6 +289,36 @@ def _rebuild_sensor(root, cell_center: np.ndarray, location: Path) -> EqualAreaS
         raise TableFormatError(f"sensor of resolution {resolution} does not reproduce the "
                                f"stored cell centres in {location}")
     return sensor
+
+
+def _int_attribute(root, name: str, location: Path, lo: int, hi: int | None = None) -> int:
+    """Root attribute ``name`` as an int in ``[lo, hi]``, or a one-line TableFormatError."""
+    value = _python_value(root[name])
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
+        accepted = f"an integer >= {lo}" + (f" and <= {hi}" if hi is not None else "")
+        raise TableFormatError(f"attribute '{name}' = {value!r} in {location}: must be {accepted}")
+    return value
+
+
+def _check_values(data: dict, location: Path) -> None:
+    """Refuse values no run writes (writer.py checks the same before writing)."""
+    def fail(name, index, value, accepted):
+        raise TableFormatError(f"dataset '{name}' = {value!r} at index {index} in {location}: {accepted}")
+
+    for name, ok, accepted in (
+            ("paths", lambda a: a >= 1, "must be >= 1 (every direction traced paths)"),
+            ("counts", lambda a: a >= 0, "must be >= 0"),
+            ("theta_i", lambda a: (a >= 0.0) & (a <= 0.5 * np.pi), "must be in [0, pi/2] rad"),
+            ("phi_i", np.isfinite, "must be finite"),
+            ("order", lambda a: a >= 0, "must be >= 0 (0: all orders, then 1..K)")):
+        array = data[name]
+        if not np.issubdtype(array.dtype, np.number):
+            raise TableFormatError(f"dataset '{name}' has dtype {array.dtype} in {location}: must be numeric")
+        bad = np.flatnonzero(~ok(array).ravel())
+        if bad.size:
+            index = np.unravel_index(bad[0], array.shape)
+            fail(name, tuple(int(i) for i in index) if array.ndim > 1 else int(index[0]),
+                 array[index].item(), accepted)
 
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Table", "TableFormatError", "open_table",

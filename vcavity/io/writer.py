@@ -12,7 +12,6 @@ from __future__ import annotations
 import datetime
 import json
 import os
-import secrets
 from pathlib import Path
 
 import h5py
@@ -20,6 +19,7 @@ import numpy as np
 
 from vcavity import __version__ as _VCAVITY_VERSION
 from vcavity.io import schema
+from vcavity.io.atomic import replace_atomically
 
 
 def _as_int64(name: str, value, shape_ndim: int) -> np.ndarray:
@@ -83,12 +83,13 @@ def _degrees(name: str, given, radians: np.ndarray) -> np.ndarray:
 
 
 def _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_seen, sensor,
-               material):
+               material, unbinned):
     """Check shapes and bookkeeping of write_table's inputs; returns per-order exits."""
     n_i = theta_i.shape[0] if theta_i.ndim == 1 else 0
     if n_i < 1:
         raise ValueError(f"theta_i must be a non-empty 1-D array, got shape {theta_i.shape}")
-    named = {"phi_i": phi_i, "paths": paths, "max_bounces_seen": max_bounces_seen, **lost_paths}
+    named = {"phi_i": phi_i, "paths": paths, "max_bounces_seen": max_bounces_seen,
+             "unbinned_paths": unbinned, **lost_paths}
     for name, array in named.items():
         if array.shape != (n_i,):
             raise ValueError(f"{name} must have shape ({n_i},), got {array.shape}")
@@ -103,13 +104,14 @@ def _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_see
                          f"got {counts.shape}")
     if np.any(paths <= 0):
         raise ValueError("paths must be positive for every incident direction")
-    # Bookkeeping (physics.md sec. 6): exits + absorbed + truncated + degenerate = paths.
+    # Bookkeeping (physics.md sec. 6): exits + absorbed + truncated + degenerate = paths
+    # (exact-f1: the first-order exits are counted in unbinned_paths, not in cells).
     exits = counts.sum(axis=2)
-    lost = sum(lost_paths.values())
+    lost = sum(lost_paths.values()) + unbinned
     if np.any(exits + lost[:, None] > paths[:, None]):
         raise ValueError("exits + absorbed + truncated + degenerate paths exceed paths")
     if start == 0 and np.any(exits[:, 0] + lost != paths):
-        raise ValueError("order-0 exits + absorbed + truncated + degenerate paths != paths")
+        raise ValueError("order-0 exits + unbinned + absorbed + truncated + degenerate paths != paths")
     if start == 0 and np.any(counts[:, 1:, :].sum(axis=1) > counts[:, 0, :]):
         raise ValueError("order-k counts exceed the all-orders (order 0) counts of a cell")
     if not isinstance(material, dict) or not {"distribution", "facet"} <= material.keys():
@@ -136,6 +138,10 @@ def _write_datasets(h5, values: dict) -> None:
             dataset.attrs["units"] = units
         dataset.attrs["long_name"] = long_name
         dataset.attrs["description"] = description
+        if name in schema.FLAGS:  # CF flags: xarray and ncdump show the meanings
+            flag_values, flag_meanings = schema.FLAGS[name]
+            dataset.attrs["flag_values"] = np.array(flag_values, dtype=np.int8)
+            dataset.attrs["flag_meanings"] = flag_meanings
         coordinates = schema.coordinates_attribute(name)
         if coordinates is not None:
             dataset.attrs["coordinates"] = coordinates  # CF: auxiliary coordinate variables
@@ -159,15 +165,17 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
                 truncated_paths, degenerate_paths, max_bounces_seen, sensor,
                 material: dict, config: dict, seed: int, block_size: int,
                 max_bounces: int, compute_time_s: float = 0.0,
-                compile_time_s: float = 0.0, theta_i_deg=None, phi_i_deg=None) -> None:
+                compile_time_s: float = 0.0, theta_i_deg=None, phi_i_deg=None,
+                unbinned_paths=None, tabulated=None, run_attrs=None, cancelled=None) -> None:
     """Write a BRDF table (format v2) atomically.
 
     Derived datasets come from the integer counts (physics.md sec. 6):
     ``brdf = counts / (paths Ω⊥_c)``, ``brdf_stderr = sqrt(counts (1 - counts/paths)) /
     (paths Ω⊥_c)``, ``albedo = Σ_c counts / paths`` (= Σ_c brdf Ω⊥_c) and each fraction =
     its path count / paths. The file is written to a temporary file in the destination
-    directory, fsynced and renamed onto ``path``; on any failure the temporary file is
-    removed and an existing file at ``path`` is left untouched.
+    directory, fsynced and renamed onto ``path`` (:func:`vcavity.io.atomic.replace_atomically`);
+    on any failure the temporary file is removed and an existing file at ``path`` is left
+    untouched.
 
     Parameters
     ----------
@@ -194,9 +202,27 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
         The incident angles in degrees exactly as the user wrote them (stored as
         ``theta_i_deg``, ``phi_i_deg``); they must equal ``theta_i``, ``phi_i`` up to
         rounding. Default ``np.degrees`` of the radians.
+    unbinned_paths : array_like of int (n_i,), optional
+        Exact-f1: first-order exits counted but not binned (default 0).
+    tabulated : dict, optional
+        What an estimator other than plain analog tabulates (:mod:`vcavity.estimators`):
+        ``brdf``, ``brdf_stderr`` (n_i, n_k, n_c), ``albedo`` (n_i, n_k), and optionally
+        ``order_source`` (n_k,), ``folded``, ``relative_error``, ``target_reached``
+        (n_i,). Default: the analog estimator of the counts, unfolded.
+    run_attrs : dict, optional
+        Further root attributes (``estimator``, ``target_error``, ...; str or float).
+    cancelled : callable, optional
+        ``cancelled() -> bool``, asked once the temporary file is complete and synced,
+        just before the rename: True (Ctrl-C was pressed meanwhile) removes the
+        temporary file, leaves ``path`` untouched and raises ``KeyboardInterrupt``.
 
     Raises
     ------
+    KeyboardInterrupt
+        ``cancelled()`` returned True; nothing was written.
+    OSError
+        The file could not be written (disk full, ...); ``path`` is untouched and no
+        temporary file is left.
     ValueError, TypeError
         Inconsistent inputs (shapes, negative counts, more paths counted than simulated,
         with order 0: exits + absorbed + truncated + degenerate != paths, or degrees that
@@ -211,8 +237,10 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
     lost_paths = {"absorbed_paths": _as_int64("absorbed_paths", absorbed_paths, 1),
                   "truncated_paths": _as_int64("truncated_paths", truncated_paths, 1),
                   "degenerate_paths": _as_int64("degenerate_paths", degenerate_paths, 1)}
+    unbinned = _as_int64("unbinned_paths", np.zeros_like(paths) if unbinned_paths is None
+                         else unbinned_paths, 1)
     exits = _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_seen,
-                       sensor, material)
+                       sensor, material, unbinned)
     theta_i_deg = _degrees("theta_i_deg", theta_i_deg, theta_i)
     phi_i_deg = _degrees("phi_i_deg", phi_i_deg, phi_i)
     config_json = json.dumps(config, sort_keys=True, default=_json_fallback)
@@ -226,7 +254,10 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
         "seed": _int_attr("seed", seed), "block_size": _int_attr("block_size", block_size),
         "max_bounces": _int_attr("max_bounces", max_bounces), "config": config_json,
         "compute_time_s": float(compute_time_s), "compile_time_s": float(compile_time_s),
+        "estimator": "analog", "target_error": float("nan"),
     }
+    for key, value in (run_attrs or {}).items():
+        root_attrs[key] = value if isinstance(value, str) else float(value)
 
     proj_solid_angle = np.asarray(sensor.cell_projected_solid_angle, dtype=np.float64)
     paths_f = paths.astype(np.float64)
@@ -248,48 +279,92 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
         "truncated": lost_paths["truncated_paths"] / paths_f,
         "degenerate": lost_paths["degenerate_paths"] / paths_f,
         "paths": paths, "max_bounces_seen": max_bounces_seen,
+        "order_source": np.zeros(order.size, np.int8), "unbinned_paths": unbinned,
+        "folded": np.zeros(theta_i.size, np.int8),
+        "relative_error": _analog_relative_error(counts, paths, order),
+        "target_reached": np.full(theta_i.size, -1, np.int8),
         "cell_center": np.asarray(sensor.cell_center, dtype=np.float64),
         "cell_solid_angle": np.asarray(sensor.cell_solid_angle, dtype=np.float64),
         "cell_projected_solid_angle": proj_solid_angle,
     }
 
-    destination = Path(os.fspath(path))
-    temporary = _create_temporary(destination)
-    try:
+    if tabulated is not None:
+        values.update(_tabulated(tabulated, values))
+
+    def fill(temporary: Path) -> None:
         # Creation order tracked everywhere: readers list datasets and attributes in the
         # order written, and older netCDF-C versions require it.
         with h5py.File(temporary, "w", track_order=True) as h5:
             h5.attrs.update(root_attrs)
             _write_datasets(h5, values)
             _write_material(h5, material)
-        _fsync(temporary)
-        os.replace(temporary, destination)
-    except BaseException:
-        temporary.unlink(missing_ok=True)
-        raise
-    try:
-        _fsync(destination.parent)  # make the rename durable; not possible everywhere
-    except OSError:
-        pass
+
+    replace_atomically(path, fill, cancelled=cancelled)
 
 
-def _create_temporary(destination: Path) -> Path:
-    """Create an empty hidden file beside ``destination`` (mode 0666 minus the umask)."""
-    while True:
-        candidate = destination.with_name(f".{destination.name}.{secrets.token_hex(6)}.tmp")
-        try:
-            os.close(os.open(candidate, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666))
-        except FileExistsError:
-            continue
-        return candidate
+def write_result(path, result, config, cancelled=None) -> None:
+    """Write the table of a finished run (``vcavity.simulate.RunResult``) atomically.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    result : vcavity.simulate.RunResult
+        Counts, bookkeeping and the estimator's tabulated values.
+    config : vcavity.config.RunConfig
+        The run's validated configuration (stored in full, with the seed).
+    cancelled : callable, optional
+        As in :func:`write_table`: asked just before the rename.
+    """
+    incidence = config.incidence
+    tabulated = {"brdf": result.brdf, "brdf_stderr": result.brdf_stderr, "albedo": result.albedo,
+                 "order_source": result.order_source, "folded": result.folded,
+                 "relative_error": result.relative_error}
+    if result.target_reached is not None:
+        tabulated["target_reached"] = result.target_reached
+    if result.lost_fractions is not None:  # weighted estimator: energy, not path, fractions
+        for position, name in enumerate(("absorbed", "truncated", "degenerate")):
+            tabulated[name] = result.lost_fractions[:, position]
+    run_attrs = {"estimator": result.estimator, "model_time_s": result.model_time_s,
+                 "model_error_ratio": result.model_error_ratio}
+    if config.target_error is not None:
+        run_attrs["target_error"] = config.target_error
+    write_table(
+        path, theta_i=result.theta_i, phi_i=result.phi_i, order=result.order, counts=result.counts,
+        theta_i_deg=[d.theta_i_deg for d in incidence], phi_i_deg=[d.phi_i_deg for d in incidence],
+        paths=result.paths, absorbed_paths=result.absorbed_paths,
+        truncated_paths=result.truncated_paths, degenerate_paths=result.degenerate_paths,
+        max_bounces_seen=result.max_bounces_seen, unbinned_paths=result.unbinned_paths,
+        sensor=result.sensor, material=config.material.to_dict(), config=config.to_dict(),
+        seed=config.seed, block_size=result.block_size, max_bounces=config.effective_max_bounces,
+        compute_time_s=result.compute_time_s, compile_time_s=result.compile_time_s,
+        tabulated=tabulated, run_attrs=run_attrs, cancelled=cancelled)
 
 
-def _fsync(path: Path) -> None:
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
+def _analog_relative_error(counts, paths, order) -> np.ndarray:
+    """Energy-weighted relative standard error of f_inf from counts (NaN without order 0)."""
+    if order[0] != 0:
+        return np.full(paths.size, np.nan)
+    n = counts[:, 0, :].astype(np.float64)
+    total = n.sum(axis=1)
+    spread = np.sqrt(n * (1.0 - n / paths[:, None])).sum(axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(total > 0, spread / np.maximum(total, 1.0), np.inf)
 
 
-__all__ = ["write_table"]
+def _tabulated(tabulated: dict, values: dict) -> dict:
+    """Check an estimator's arrays against the analog defaults' shapes and dtypes."""
+    out = {}
+    for name, array in tabulated.items():
+        if name not in values or name in ("counts", "paths"):
+            raise ValueError(f"tabulated[{name!r}] is not an estimator output")
+        reference = values[name]
+        array = np.asarray(array, dtype=reference.dtype)
+        if array.shape != reference.shape:
+            raise ValueError(f"tabulated[{name!r}] must have shape {reference.shape}, got {array.shape}")
+        if name in ("brdf", "brdf_stderr", "albedo") and not np.all(np.isfinite(array) & (array >= 0)):
+            raise ValueError(f"tabulated[{name!r}] must be finite and non-negative")
+        out[name] = array
+    return out
+
+
+__all__ = ["write_result", "write_table"]

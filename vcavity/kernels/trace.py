@@ -12,6 +12,13 @@ not, hence integer constants).
 
 The kernel is analog: every path has weight 1, so per-cell results are integer counts
 and merging per-thread histograms is exact in any order.
+
+Specialisations that are *not* compiled variants (so the number of variants stays at one
+per distribution x facet variant, :func:`variants`): isotropic roughness takes a
+stretch-free branch inside the distributions' ``sample_disk`` (a loop-invariant test, free
+when predicted); ``max_bounces = 1`` (f1 only) ends a path at its second wall hit before
+any event; ``first_binned_order = 2`` skips binning the first-order exits. Throughput and
+compile times: docs/performance.md.
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from vcavity._jit import njit
 from vcavity.binning import direction_to_cell
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
-from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, next_surface
+from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
 
@@ -36,7 +43,8 @@ STAT_ABSORBED = 0
 STAT_TRUNCATED = 1
 STAT_DEGENERATE = 2
 STAT_MAX_BOUNCES = 3
-N_STATS = 4
+STAT_UNBINNED = 4  # exits of an order below first_binned_order: counted, not binned
+N_STATS = 5
 
 
 @njit(cache=True, inline="always")
@@ -66,13 +74,14 @@ DEGENERATE = 3
 
 @njit(cache=True, inline="always")
 def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant, facet_data,
-                max_bounces, resolution):
+                max_bounces):
     """Trace one path from the light into a sampled groove until it leaves or ends.
 
-    Returns ``(state, outcome, bounces, cell)``: the advanced stream state, one of
+    Returns ``(state, outcome, bounces, wx, wy, wz)``: the advanced stream state, one of
     ``EXITED / ABSORBED / TRUNCATED / DEGENERATE``, the number of facet events, and the
-    sensor cell of the exit direction (valid when ``outcome == EXITED``). Nothing is
-    written to memory here, so threads share no cache lines in the hot loop.
+    world-frame exit direction (unit to rounding, valid when ``outcome == EXITED``; the
+    caller bins it, or not). Nothing is written to memory here, so threads share no
+    cache lines in the hot loop.
     """
     state, tan_m, cos_phi, sin_phi = _sample_groove(state, dist_kind, params)
     if tan_m < 1e150:
@@ -87,38 +96,54 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant,
     dz = -iz
     state, u0 = next_uniform(state)
     x = 2.0 * u0 - 1.0  # uniform entry point on the opening
-    surface = OPENING
+    surface, x = enter(x, dx, dz, tan_m)  # always a wall: the segment from the opening
     k = 0
     while True:
-        surface, x = next_surface(surface, x, dx, dz, tan_m)
+        if k > 0:  # the segments after a bounce (the first one is enter's)
+            surface, x = leave(surface, x, dx, dz, tan_m)
         if surface == OPENING:
             break
         if surface == NO_HIT:
-            return state, DEGENERATE, k, 0
-        if k == max_bounces:
-            return state, TRUNCATED, k, 0
+            return state, DEGENERATE, k, 0.0, 0.0, 0.0
+        if k == max_bounces:  # max_bounces = 1 (f1 only): stops here, before a 2nd event
+            return state, TRUNCATED, k, 0.0, 0.0, 0.0
         k += 1
-        # facet normal (nx, 0, nz); cos_in = -(d.n) is written with the same rate the
-        # geometry used, so it is > 0 whenever the facet was hit.
-        if surface == LEFT:
-            nx = sin_t
-            cos_in = -(dz + tan_m * dx) * cos_t
-        else:
-            nx = -sin_t
-            cos_in = -(dz - tan_m * dx) * cos_t
-        nz = cos_t
+        # wall normal (side sin t, 0, cos t), the side selected without a branch (left and
+        # right are equally likely); cos_in = -(d.n) is written with the same rate the
+        # geometry used, so it is > 0 whenever the wall was hit.
+        side = 1.0 if surface == LEFT else -1.0
+        cos_in = -(dz + side * (tan_m * dx)) * cos_t
         state, fate, dx, dy, dz = facets.event(facet_kind, facet_variant, state, dx, dy, dz, cos_in,
-                                               nx, nz, facet_data)
+                                               side * sin_t, cos_t, facet_data)
         if fate == FACET_ABSORBED:
-            return state, ABSORBED, k, 0
-    # exit through the opening: back to the world frame and bin
+            return state, ABSORBED, k, 0.0, 0.0, 0.0
+    # exit through the opening: back to the world frame. Not normalised: reflections and
+    # re-emissions keep |d| = 1 to rounding (a few ulp), and the binning tolerates that
+    # (binning.direction_to_cell); the sqrt and division cost ~5 ns a path.
     wx = dx * cos_phi - dy * sin_phi
     wy = dx * sin_phi + dy * cos_phi
-    inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
-    return state, EXITED, k, direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
+    return state, EXITED, k, wx, wy, dz
 
 
 _KERNELS: dict[tuple[int, int, int], object] = {}
+
+
+def variants() -> list[tuple[str, str, str]]:
+    """Every kernel variant :func:`get_kernel` can build, as (distribution, facet, facet variant) names.
+
+    One per registered distribution and facet variant (5 x (1 + 3) = 20 today); each is
+    compiled on first use (about 7 s of CPU, docs/performance.md) and then loaded from
+    Numba's disk cache. The list follows the registries, so a new distribution or facet
+    model adds its variants here without edits.
+
+    Returns
+    -------
+    list of (str, str, str)
+        In registry order. ``get_kernel(distributions.kind_of(d), facets.kind_of(f),
+        facets.get(f).VARIANTS.index(v))`` builds the variant ``(d, f, v)``.
+    """
+    return [(dist.NAME, facet.NAME, name)
+            for dist in distributions.MODULES for facet in facets.MODULES for name in facet.VARIANTS]
 
 
 def _source_tag() -> int:
@@ -148,7 +173,7 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     The returned function has the signature::
 
         kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots)
+               max_bounces, max_order, resolution, n_slots, first_binned_order)
             -> (counts[n_slots, max_order + 1, resolution**2] int64,
                 stats[n_slots, N_STATS] int64)
 
@@ -159,7 +184,9 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     ``n_paths`` is not a multiple of ``BLOCK_SIZE``. Order slot 0 counts paths with more
     than ``max_order`` bounces. Slot ``s`` traces blocks ``s, s + n_slots, ...``; results
     do not depend on ``n_slots`` because blocks own their random streams and counts are
-    integers.
+    integers. Exits after fewer than ``first_binned_order`` bounces are not binned, only
+    counted (``stats[:, STAT_UNBINNED]``): the exact-f1 estimator passes 2 and skips the
+    binning of the ~90 % of paths that leave after one bounce; their counts row stays 0.
     """
     key = (int(dist_kind), int(facet_kind), int(facet_variant))
     if key in _KERNELS:
@@ -168,7 +195,7 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     SOURCE_TAG = _SOURCE_TAG
 
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots):
+               max_bounces, max_order, resolution, n_slots, first_binned_order):
         _ = SOURCE_TAG  # part of the cache key; see _source_tag
         n_cells = resolution * resolution
         counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
@@ -182,17 +209,21 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
             truncated = 0
             degenerate = 0
             deepest = 0
+            unbinned = 0
             for b in range(slot, n_blocks, n_slots):
                 block = first_block + b
                 n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
                 state = block_key(direction_key, block)
                 for _ in range(n_here):
-                    state, outcome, k, cell = _trace_path(
-                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces,
-                        resolution)
+                    state, outcome, k, wx, wy, wz = _trace_path(
+                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
                     deepest = max(deepest, k)
                     if outcome == EXITED:
-                        slot_counts[k if k <= max_order else 0, cell] += 1
+                        if k < first_binned_order:
+                            unbinned += 1
+                        else:
+                            cell = direction_to_cell(wx, wy, wz, resolution)
+                            slot_counts[k if k <= max_order else 0, cell] += 1
                     elif outcome == ABSORBED:
                         absorbed += 1
                     elif outcome == TRUNCATED:
@@ -203,6 +234,7 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
             stats[slot, STAT_TRUNCATED] = truncated
             stats[slot, STAT_DEGENERATE] = degenerate
             stats[slot, STAT_MAX_BOUNCES] = deepest
+            stats[slot, STAT_UNBINNED] = unbinned
         return counts, stats
 
     # Every variant gets its own name: Numba names the cache files and the compiled

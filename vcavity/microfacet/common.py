@@ -28,6 +28,7 @@ MAX_TAN_THETA = 1e300
 # realistic roughness); outside it the squares would under- or overflow.
 _PLAIN_NORM_MIN = 1e-150
 _PLAIN_NORM_MAX = 1e150
+_LN2 = math.log(2.0)
 
 
 @njit(cache=True)
@@ -169,6 +170,38 @@ def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
         mz = 1.0 / tan_theta
         sin_theta = 1.0
     return sin_theta * cos_phi, sin_theta * sin_phi, mz
+
+
+@njit(cache=True, inline="always")
+def ratio_squared(a, b, c):
+    """``(a / (b c))^2`` for finite ``b, c > 0`` with no intermediate under- or overflow.
+
+    Mantissas and exponents are taken apart (``frexp``), so the result is correctly
+    rounded to a few ulp wherever it is a normal float, 0 where it underflows and ``inf``
+    where it overflows (the distributions' D for alpha beyond [1e-50, 1e50]).
+    """
+    if a == 0.0:
+        return 0.0
+    fa, ea = math.frexp(abs(a))
+    fb, eb = math.frexp(b)
+    fc, ec = math.frexp(c)
+    q = fa / (fb * fc)  # in (0.5, 8)
+    e = 2 * (ea - eb - ec)
+    if e > 1100:
+        return math.inf
+    if e < -1200:
+        return 0.0
+    return math.ldexp(q * q, e)
+
+
+@njit(cache=True, inline="always")
+def log_ratio_squared(a, b):
+    """``log((a / b)^2)`` for finite ``b > 0``, from exact exponents; ``-inf`` for ``a = 0``."""
+    if a == 0.0:
+        return -math.inf
+    fa, ea = math.frexp(abs(a))
+    fb, eb = math.frexp(b)
+    return 2.0 * (math.log(fa / fb) + (ea - eb) * _LN2)
 
 
 @njit(cache=True)

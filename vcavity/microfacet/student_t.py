@@ -193,6 +193,12 @@ def sample_disk(a, b, s, params):
     # the slope is (alpha_x a, alpha_y b) r / sqrt(s); stretched_slope stays finite for
     # alpha from 1e-300 to 1e300 (H sec. 5) as long as r / sqrt(s) < 1e150
     if s > 1e-270:
+        if params[0] == params[1] and 1e-150 < params[0] < 1e150:
+            # isotropic (physics.md sec. 2): |slope| = alpha r and phi_m is opposite to (a, b),
+            # so no stretching (two divisions and a sqrt fewer); the test is the same for every
+            # path of a run, so it is predicted and costs nothing
+            inv = 1.0 / math.sqrt(s)
+            return min(params[0] * r, MAX_TAN_THETA), -a * inv, -b * inv
         return stretched_slope(r / math.sqrt(s), a, b, params[0], params[1])
     # tiny disk points (s underflows below |(a, b)| ~ 1e-162): r / |(a, b)| may exceed 1e150
     t, c, sn = stretched_slope(r / math.hypot(a, b), a, b, params[0], params[1])

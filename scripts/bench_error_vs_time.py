@@ -1,0 +1,146 @@
+"""Error against paths and wall time, for every estimator (issue: fast to a given accuracy).
+
+For each material at theta_i = 60 deg (the IL paper's figure 7(b) material, GGX alpha 0.5
+kd 0.8, a near-specular dielectric Beckmann alpha 0.1 kd 0) and each estimator (analog
+unfolded = the estimator before the fold existed, analog, exact-f1 and paper, the last
+three folded), runs a ladder of path budgets and measures
+
+- the relative L1 error of f1 against the exact cell-averaged V-cavity model,
+- the relative L1 errors of f2 and f_inf against a high-budget reference run
+  (exact-f1, folded, its own seed; its own noise is printed and subtracted in quadrature),
+
+``L1 = Σ_c |f_c - ref_c| Ω⊥_c / Σ_c ref_c Ω⊥_c``, as functions of paths and of wall time
+(tracing plus, for exact-f1, the model's quadrature; compile time excluded). It fits the
+log-log slope of error against paths (about -1/2 for an unbiased estimator) and prints each
+estimator's efficiency 1 / (error^2 x time) relative to analog unfolded, at the largest
+budget. Finally it times an exact-f1 folded run with a target error chosen for 0.2 % L1.
+
+    python scripts/bench_error_vs_time.py --plot error_vs_time.png       # ~10 min, 2 cores
+    python scripts/bench_error_vs_time.py --quick
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+
+import numpy as np
+
+from vcavity import config as config_mod
+from vcavity.simulate import Simulation
+
+MATERIALS = {
+    "fig7b (beckmann 0.6, kd 0.9, eta 1.5)": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
+    "ggx 0.5, kd 0.8": {"distribution": "ggx", "alpha": 0.5, "kd": 0.8, "eta": 1.5},
+    "dielectric (beckmann 0.1, kd 0)": {"distribution": "beckmann", "alpha": 0.1, "kd": 0.0, "eta": 1.5},
+}
+ESTIMATORS = (("analog, unfolded", "analog", False), ("analog", "analog", None),
+              ("exact-f1", "exact-f1", None), ("paper", "paper", None))
+THETA_DEG = 60.0
+
+
+def _config(material, estimator, fold, paths, seed, target=None):
+    simulation = {"seed": seed, "max_order": 2, "estimator": estimator, "fold_symmetry": fold}
+    if target is not None:
+        simulation.update(target_error=target, max_paths=paths)
+    return config_mod.validate({"material": material,
+                                "incidence": {"theta_i_deg": [THETA_DEG], "paths": paths},
+                                "simulation": simulation})
+
+
+def _run(material, estimator, fold, paths, seed, target=None):
+    sim = Simulation(_config(material, estimator, fold, paths, seed, target))
+    sim.compile()
+    start = time.perf_counter()
+    result = sim.run()
+    return result, time.perf_counter() - start  # includes the model (exact-f1)
+
+
+def _l1(values, reference, area):
+    return float(np.sum(np.abs(values - reference) * area) / np.sum(reference * area))
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    parser.add_argument("--quick", action="store_true", help="small budgets (a smoke run)")
+    parser.add_argument("--plot", metavar="PNG")
+    args = parser.parse_args(argv)
+    ladder = [10**5, 4 * 10**5, 16 * 10**5] if args.quick else [10**6, 4 * 10**6, 16 * 10**6, 64 * 10**6]
+    reference_paths = 4 * 10**6 if args.quick else 10**9
+    print(f"vcavity bench_error_vs_time, theta_i = {THETA_DEG:g} deg, N = 57, {time.strftime('%Y-%m-%d')}")
+    curves = {}
+    for name, material in MATERIALS.items():
+        ref, ref_time = _run(material, "exact-f1", None, reference_paths, seed=999)
+        area = np.asarray(ref.sensor.cell_projected_solid_angle)
+        area_sum = {k: np.sum(ref.brdf[0, k] * area) for k in range(3)}
+        ref_noise = {k: math.sqrt(2 / math.pi) * np.sum(ref.brdf_stderr[0, k] * area) / area_sum[k] for k in (0, 2)}
+        f1_model = ref.brdf[0, 1]  # the exact-f1 reference's model, refined to its 1e9-path tolerance
+        print(f"\n{name}: reference {reference_paths:.1e} paths in {ref_time:.1f} s (model {ref.model_time_s:.1f} s), "
+              f"its expected L1 noise f_inf {ref_noise[0]:.2e}, f2 {ref_noise[2]:.2e}")
+        print(f"{'estimator':>18} {'paths':>10} {'time s':>8} {'L1 f1':>9} {'L1 f2':>9} {'L1 f_inf':>9}")
+        for label, estimator, fold in ESTIMATORS:
+            rows = []
+            for paths in ladder:
+                result, seconds = _run(material, estimator, fold, paths, seed=7)
+                errors = [_l1(result.brdf[0, 1], f1_model, area)]
+                for k in (2, 0):  # remove the reference's own noise in quadrature
+                    raw = _l1(result.brdf[0, k], ref.brdf[0, k], area)
+                    errors.append(math.sqrt(max(raw * raw - ref_noise[k] ** 2, 0.25 * raw * raw)))
+                rows.append((paths, seconds, *errors))
+                shown = "analytic" if estimator == "exact-f1" else f"{errors[0]:9.2e}"
+                print(f"{label:>18} {paths:10.1e} {seconds:8.2f} {shown:>9} {errors[1]:9.2e} {errors[2]:9.2e}")
+            curves[(name, label)] = np.array(rows)
+        base = curves[(name, "analog, unfolded")][-1]
+        print(f"{'estimator':>18} {'slope f_inf':>11} {'slope f2':>9} {'efficiency f_inf':>17} {'f2':>6}")
+        for label, _, _ in ESTIMATORS:
+            rows = curves[(name, label)]
+            slope_inf = np.polyfit(np.log(rows[:, 0]), np.log(rows[:, 4]), 1)[0]
+            slope_2 = np.polyfit(np.log(rows[:, 0]), np.log(rows[:, 3]), 1)[0]
+            last = rows[-1]
+            eff = (base[4] ** 2 * base[1]) / (last[4] ** 2 * last[1])
+            eff2 = (base[3] ** 2 * base[1]) / (last[3] ** 2 * last[1])
+            print(f"{label:>18} {slope_inf:11.2f} {slope_2:9.2f} {eff:17.1f} {eff2:6.1f}")
+    # f_inf to 0.2 % relative L1: with normal cell errors L1 ~ sqrt(2/pi) x the stop rule's error
+    material = MATERIALS["fig7b (beckmann 0.6, kd 0.9, eta 1.5)"]
+    target = 0.002 / math.sqrt(2 / math.pi)
+    result, seconds = _run(material, "exact-f1", None, 2 * 10**9, seed=11, target=target)
+    ref, _ = _run(material, "exact-f1", None, reference_paths, seed=999)
+    area = np.asarray(ref.sensor.cell_projected_solid_angle)
+    l1 = _l1(result.brdf[0, 0], ref.brdf[0, 0], area)
+    print(f"\nexact-f1, folded, --target-error {target:.2e} on fig7b at 60 deg: {int(result.paths[0]):,} paths, "
+          f"{seconds:.2f} s wall (model {result.model_time_s:.2f} s), L1 of f_inf vs reference {l1:.2e} "
+          f"(reference noise included)")
+    if args.plot:
+        _plot(curves, args.plot)
+        print(f"plot written to {args.plot}")
+    return 0
+
+
+def _plot(curves, path):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = list(MATERIALS)
+    fig, axes = plt.subplots(2, len(names), figsize=(5 * len(names), 8), constrained_layout=True)
+    for column, name in enumerate(names):
+        for label, _, _ in ESTIMATORS:
+            rows = curves[(name, label)]
+            axes[0, column].loglog(rows[:, 0], rows[:, 4], "o-", label=label)
+            axes[1, column].loglog(rows[:, 1], rows[:, 4], "o-", label=label)
+        axes[0, column].set_title(name)
+        axes[0, column].set_xlabel("paths")
+        axes[1, column].set_xlabel("wall time (s), model included")
+        for row in (0, 1):
+            axes[row, column].set_ylabel("relative L1 error of f_inf")
+            axes[row, column].grid(alpha=0.3, which="both")
+            axes[row, column].legend(fontsize=8)
+    fig.suptitle("vcavity: error of f_inf against paths and wall time, theta_i = 60 deg, 2 threads")
+    fig.savefig(path, dpi=110)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,99 @@
+"""Checkpoints: an interrupted and resumed run gives the uninterrupted table, bit for bit
+(vcavity/checkpoint.py, Simulation.run(state=..., should_stop=...)).
+
+The interruption points are chosen by counting chunks, so the tests exercise stops inside
+a direction, between directions and inside a target-error check interval.
+"""
+
+import h5py
+import numpy as np
+import pytest
+
+from vcavity import checkpoint
+from vcavity import config as config_mod
+from vcavity.simulate import RunInterrupted, Simulation
+
+RAW = {"material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
+       "incidence": {"theta_i_deg": [20.0, 65.0], "paths": 300_000},
+       "simulation": {"seed": 3, "max_order": 2, "sensor_resolution": 15}}
+
+
+def _config(**simulation):
+    return config_mod.validate({**RAW, "simulation": {**RAW["simulation"], **simulation}})
+
+
+def _stop_after(n_chunks):
+    calls = {"n": 0}
+
+    def should_stop():
+        calls["n"] += 1
+        return calls["n"] >= n_chunks
+
+    return should_stop
+
+
+def _assert_same_table(a, b):
+    for name in ("counts", "paths", "brdf", "brdf_stderr", "albedo", "absorbed_paths", "truncated_paths",
+                 "max_bounces_seen", "unbinned_paths", "relative_error"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name), err_msg=name)
+
+
+@pytest.mark.parametrize("simulation, stops", [
+    ({}, [3]),                       # inside the first direction
+    ({}, [5, 3, 4]),                 # three interruptions, one in the second direction
+    ({"target_error": 0.03, "max_paths": 2_000_000}, [5, 7]),  # between target checks
+])
+def test_interrupt_save_load_resume_is_bitwise_identical(tmp_path, simulation, stops):
+    cfg = _config(**simulation)
+    whole = Simulation(cfg, chunk_blocks=7).run()
+    state = None
+    path = tmp_path / "run.h5.checkpoint"
+    for n in stops:
+        sim = Simulation(cfg, chunk_blocks=5 + n, threads=1 + n % 2)  # chunking and threads vary
+        with pytest.raises(RunInterrupted) as info:
+            sim.run(state=state, should_stop=_stop_after(n))
+        checkpoint.save(path, info.value.state, cfg.to_dict(), int(sim.paths_done(info.value.state).sum()),
+                        sim.total_paths)
+        state = checkpoint.load(path, cfg.to_dict())
+        np.testing.assert_array_equal(state.tally, info.value.state.tally)
+    resumed = Simulation(cfg, chunk_blocks=3).run(state=state)
+    _assert_same_table(whole, resumed)
+    assert checkpoint.describe(path)["paths_done"] < sum(cfg.path_budget(d) for d in cfg.incidence)
+
+
+def test_periodic_checkpoints_are_taken(tmp_path):
+    cfg = _config()
+    seen = []
+    Simulation(cfg, chunk_blocks=4).run(on_checkpoint=lambda s: seen.append(s.done_blocks.copy()),
+                                        checkpoint_every_s=0.0)
+    assert len(seen) >= 5 and np.all(np.diff([b.sum() for b in seen]) > 0)
+
+
+def test_a_corrupted_or_foreign_checkpoint_is_refused(tmp_path):
+    cfg = _config()
+    sim = Simulation(cfg, chunk_blocks=4)
+    with pytest.raises(RunInterrupted) as info:
+        sim.run(should_stop=_stop_after(3))
+    path = tmp_path / "c.checkpoint"
+    checkpoint.save(path, info.value.state, cfg.to_dict(), 1, 2)
+    good = path.read_bytes()
+    with pytest.raises(checkpoint.CheckpointError, match="another run"):
+        checkpoint.load(path, _config(seed=4).to_dict())
+    with h5py.File(path, "a") as h5:  # flip one count: the digest no longer matches
+        tally = h5["tally"][()]
+        tally.flat[np.argmax(tally)] += 1
+        h5["tally"][...] = tally
+    with pytest.raises(checkpoint.CheckpointError, match="corrupted"):
+        checkpoint.load(path, cfg.to_dict())
+    path.write_bytes(good[: len(good) // 2])  # truncated
+    with pytest.raises(checkpoint.CheckpointError, match="unreadable or truncated"):
+        checkpoint.load(path, cfg.to_dict())
+    assert path.exists()  # never removed or replaced by the failed load
+    with pytest.raises(checkpoint.CheckpointError, match="no checkpoint"):
+        checkpoint.load(tmp_path / "missing", cfg.to_dict())
+
+
+def test_the_output_path_does_not_change_the_digest():
+    a = _config().to_dict()
+    b = dict(a, output={"path": "/elsewhere/x.h5"})
+    assert checkpoint.config_digest(a) == checkpoint.config_digest(b)

@@ -1,0 +1,131 @@
+"""`vcavity run` killed (SIGKILL) or interrupted (SIGINT) at arbitrary moments and resumed
+with --resume writes the table of an uninterrupted run, bit for bit; the checkpoint is
+always readable; `vcavity info` shows it as partial.
+
+Processes start in their own process group (start_new_session), so SIGINT reaches them
+as a terminal's Ctrl-C would. Moments are drawn from a seeded generator.
+"""
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+from vcavity import checkpoint, open_table
+
+CONFIG = """
+[material]
+distribution = "beckmann"
+alpha = 0.6
+kd = 0.9
+[incidence]
+theta_i_deg = [30, 65]
+paths = {paths}
+[simulation]
+seed = 4
+sensor_resolution = 21
+"""
+FIELDS = ("counts", "paths", "brdf", "brdf_stderr", "albedo", "absorbed", "truncated", "max_bounces_seen")
+
+
+def _start(tmp_path, out, *extra, env=None):
+    return subprocess.Popen([sys.executable, "-m", "vcavity.cli", "run", str(tmp_path / "run.toml"), "-o", str(out),
+                             "-q", "--chunk-blocks", "8", "--checkpoint-every", "0.05", *extra],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env=env)
+
+
+def _finish(process, timeout=600):
+    out, err = process.communicate(timeout=timeout)
+    return process.returncode, out, err
+
+
+def _same_tables(a, b):
+    ta, tb = open_table(a), open_table(b)
+    for name in FIELDS:
+        np.testing.assert_array_equal(getattr(ta, name), getattr(tb, name), err_msg=name)
+
+
+@pytest.fixture
+def setup(tmp_path):
+    def make(paths):
+        (tmp_path / "run.toml").write_text(CONFIG.format(paths=paths))
+        reference = tmp_path / "reference.h5"
+        code, _, err = _finish(_start(tmp_path, reference))
+        assert code == 0, err
+        return reference
+    return make
+
+
+def test_sigint_saves_a_checkpoint_and_resume_completes(tmp_path, setup):
+    reference = setup(12_000_000)
+    out = tmp_path / "out.h5"
+    process = _start(tmp_path, out)
+    deadline = time.time() + 120
+    while not checkpoint.checkpoint_path(out).exists() and time.time() < deadline:
+        time.sleep(0.02)
+    time.sleep(0.2)
+    os.killpg(process.pid, signal.SIGINT)
+    code, stdout, err = _finish(process)
+    if code == 0:
+        pytest.skip("the run finished before SIGINT arrived (machine too fast for this budget)")
+    assert code == 130, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "interrupted; checkpoint" in lines[-1] and "Traceback" not in err
+    assert not out.exists() and checkpoint.checkpoint_path(out).exists()
+    info = subprocess.run([sys.executable, "-m", "vcavity.cli", "info", str(checkpoint.checkpoint_path(out))],
+                          capture_output=True, text=True)
+    assert info.returncode == 0 and "paths done" in info.stdout and "of 24,000,000" in info.stdout
+    # without --resume the checkpoint is not overwritten: one line, exit 2
+    refused = _finish(_start(tmp_path, out))
+    assert refused[0] == 2 and "--resume" in refused[2]
+    code, _, err = _finish(_start(tmp_path, out, "--resume"))
+    assert code == 0, err
+    assert "resuming from" in err
+    assert not checkpoint.checkpoint_path(out).exists()
+    _same_tables(reference, out)
+
+
+@pytest.mark.slow
+def test_three_sigkills_then_resume_equals_an_uninterrupted_run(tmp_path, setup):
+    reference = setup(40_000_000)
+    out = tmp_path / "out.h5"
+    moments = random.Random(20261201)
+    first = True
+    for _ in range(3):
+        process = _start(tmp_path, out, *([] if first else ["--resume"]))
+        first = False
+        time.sleep(moments.uniform(1.0, 4.0))
+        os.killpg(process.pid, signal.SIGKILL)
+        process.communicate()
+        path = checkpoint.checkpoint_path(out)
+        if path.exists():  # never left unreadable, whenever the kill came
+            checkpoint.describe(path)
+    code, _, err = _finish(_start(tmp_path, out, "--resume"))
+    assert code == 0, err
+    _same_tables(reference, out)
+    leftovers = [p for p in tmp_path.iterdir() if p.name.endswith(".tmp")]
+    assert leftovers == [] or all(p.stat().st_size >= 0 for p in leftovers)
+
+
+@pytest.mark.slow
+def test_sigkill_during_compilation_then_resume(tmp_path, setup):
+    """A cold cache: the kill lands while Numba compiles, before any checkpoint exists;
+    --resume then says so and starts from the first path."""
+    reference = setup(4_000_000)
+    out = tmp_path / "out.h5"
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cold-cache")}
+    process = _start(tmp_path, out, env=env)
+    time.sleep(3.0)
+    os.killpg(process.pid, signal.SIGKILL)
+    process.communicate()
+    assert not checkpoint.checkpoint_path(out).exists()
+    code, _, err = _finish(_start(tmp_path, out, "--resume", env=env))
+    assert code == 0, err
+    assert "no checkpoint" in err
+    _same_tables(reference, out)

@@ -1,0 +1,100 @@
+"""Target-error runs: the stop rule, its reproducibility and the path cap (simulate.py)."""
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from vcavity import config as config_mod
+from vcavity.rng import BLOCK_SIZE
+from vcavity.simulate import TARGET_CHECK_BLOCKS, simulate
+
+MATERIAL = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
+STEP = TARGET_CHECK_BLOCKS * BLOCK_SIZE
+
+
+def _config(target, cap, fold=None, theta=(30.0, 70.0)):
+    return config_mod.validate({
+        "material": MATERIAL,
+        "incidence": {"theta_i_deg": list(theta), "paths": cap},
+        "simulation": {"seed": 5, "max_order": 2, "sensor_resolution": 15, "target_error": target,
+                       "fold_symmetry": fold}})
+
+
+def _energy_weighted_error(result, j):
+    """The stop rule's measure, recomputed from the table values: sum sigma Omega / sum f Omega."""
+    area = np.asarray(result.sensor.cell_projected_solid_angle)
+    return np.sum(result.brdf_stderr[j, 0] * area) / np.sum(result.brdf[j, 0] * area)
+
+
+def test_stops_at_the_first_check_below_the_target():
+    result = simulate(_config(0.01, 10**8))
+    assert np.all(result.target_reached)
+    for j in range(2):
+        paths = int(result.paths[j])
+        assert paths % STEP == 0 and 3 * STEP <= paths < 10**8
+        error = _energy_weighted_error(result, j)
+        assert error == pytest.approx(result.relative_error[j], rel=1e-12) and error <= 0.01
+        # one check earlier (the same streams, a fixed budget) the error was above the target
+        earlier = simulate(config_mod.validate({
+            "material": MATERIAL,
+            "incidence": {"theta_i_deg": [30.0, 70.0][j], "paths": paths - STEP},
+            "simulation": {"seed": 5, "max_order": 2, "sensor_resolution": 15}}))
+        assert earlier.relative_error[0] > 0.01
+
+
+def test_same_table_for_any_threads_and_chunking():
+    first = simulate(_config(0.03, 10**8), threads=1, chunk_blocks=5)
+    second = simulate(_config(0.03, 10**8), chunk_blocks=512)
+    np.testing.assert_array_equal(first.paths, second.paths)
+    np.testing.assert_array_equal(first.counts, second.counts)
+    np.testing.assert_array_equal(first.brdf, second.brdf)
+
+
+def test_path_cap_is_reported():
+    cap = 300_000  # not a multiple of the check step: the last block is short
+    result = simulate(_config(1e-4, cap))
+    np.testing.assert_array_equal(result.paths, [cap, cap])
+    assert not np.any(result.target_reached)
+    assert np.all(result.relative_error > 1e-4)
+
+
+def test_fold_reaches_the_target_with_fewer_paths():
+    folded = simulate(_config(0.03, 10**8, fold=None, theta=(60.0,)))
+    unfolded = simulate(_config(0.03, 10**8, fold=False, theta=(60.0,)))
+    assert folded.paths[0] < unfolded.paths[0]
+
+
+def _cli(*args, cwd):
+    return subprocess.run([sys.executable, "-m", "vcavity.cli", *args], cwd=cwd, capture_output=True,
+                          text=True, timeout=600)
+
+
+def test_cli_target_error_and_cap(tmp_path):
+    config = tmp_path / "run.toml"
+    config.write_text('[material]\ndistribution = "beckmann"\nalpha = 0.6\nkd = 0.9\n'
+                      '[incidence]\ntheta_i_deg = [45]\n[simulation]\nsensor_resolution = 15\n')
+    done = _cli("run", str(config), "-o", "t.h5", "-q", "--target-error", "0.05", "--max-paths", "2e6",
+                cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "target error 0.05 reached" in done.stdout
+    capped = _cli("run", str(config), "-o", "c.h5", "-q", "--target-error", "0.0001", "--max-paths", "100000",
+                  cwd=tmp_path)
+    assert capped.returncode == 0 and "NOT reached: path cap hit" in capped.stdout
+    from vcavity import open_table
+
+    table = open_table(tmp_path / "c.h5")
+    assert table.paths[0] == 100_000 and table.target_reached[0] == 0
+    assert table.attrs["target_error"] == pytest.approx(1e-4)
+
+
+@pytest.mark.parametrize("args, words", [
+    (["--max-paths", "1000"], "--max-paths = 1000: applies only with --target-error"),
+    (["--target-error", "2"], "expected a number in (0, 1)"),
+    (["--estimator", "paperish"], "invalid choice"),
+])
+def test_cli_bad_flags(tmp_path, args, words):
+    done = _cli("run", "-o", "x.h5", "-q", *args, cwd=tmp_path)
+    assert done.returncode == 2 and words in done.stderr
+    assert not (tmp_path / "x.h5").exists()

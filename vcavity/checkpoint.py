@@ -1,0 +1,145 @@
+"""The state of an unfinished run, and its checkpoint file (atomic, checksummed).
+
+A :class:`RunState` holds, per incident direction, the integer tally of the blocks traced
+so far (blocks ``0 .. done_blocks - 1``, always a prefix, so a resumed run traces exactly
+the blocks an uninterrupted one would), the path statistics and whether the direction is
+finished. Integer sums merge exactly, so resuming gives a bitwise identical table.
+
+A checkpoint is an HDF5 file (``format = "vcavity-checkpoint"``) holding the state, the
+run's full configuration as JSON and a SHA-256 digest of both: a truncated or corrupted
+file, or one of another configuration, is detected and refused, never silently restarted.
+It is written like a table: temporary file in the same folder, flush, fsync, rename.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+FORMAT_NAME = "vcavity-checkpoint"
+FORMAT_VERSION = 1
+_ARRAYS = ("done_blocks", "finished", "reached", "tally", "stats")
+
+
+class CheckpointError(ValueError):
+    """A checkpoint cannot be used (unreadable, corrupted, or of another run); one line."""
+
+
+@dataclass
+class RunState:
+    """Progress of a run (see module doc); arrays are updated in place while it runs."""
+
+    done_blocks: np.ndarray  # (incidence,) int64
+    finished: np.ndarray  # (incidence,) bool
+    reached: np.ndarray  # (incidence,) bool: target error reached
+    tally: np.ndarray  # (incidence, depth, max_order + 1, cells) int64
+    stats: np.ndarray  # (incidence, n_stats) int64
+    compute_time_s: float = 0.0
+
+
+def checkpoint_path(output: Path) -> Path:
+    """Where the checkpoint of a run writing ``output`` lives: ``<output>.checkpoint``."""
+    output = Path(output)
+    return output.with_name(output.name + ".checkpoint")
+
+
+def config_digest(config_dict: dict) -> str:
+    """SHA-256 of the run-defining configuration (the output path excluded)."""
+    defining = {key: value for key, value in config_dict.items() if key not in ("output", "source")}
+    return hashlib.sha256(json.dumps(defining, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _payload_digest(state: RunState, config_json: str) -> str:
+    digest = hashlib.sha256(config_json.encode())
+    for name in _ARRAYS:
+        array = np.ascontiguousarray(getattr(state, name))
+        digest.update(name.encode() + str(array.dtype).encode() + str(array.shape).encode())
+        digest.update(array.tobytes())
+    return digest.hexdigest()
+
+
+def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planned: int) -> None:
+    """Write ``state`` atomically to ``path`` (temporary file, fsync, ``os.replace``; the
+    temporary names and their cleanup are those of tables, :mod:`vcavity.io.atomic`)."""
+    import h5py
+
+    from vcavity.io.atomic import remove_stale_temporaries, replace_atomically
+
+    config_json = json.dumps(config_dict, sort_keys=True, default=str)
+
+    def fill(temporary):
+        with h5py.File(temporary, "w") as h5:
+            h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
+                             "config": config_json, "config_digest": config_digest(config_dict),
+                             "payload_sha256": _payload_digest(state, config_json),
+                             "compute_time_s": float(state.compute_time_s),
+                             "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
+            for name in _ARRAYS:
+                array = getattr(state, name)
+                h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
+
+    remove_stale_temporaries(path)
+    replace_atomically(Path(path), fill)
+
+
+def load(path, config_dict: dict) -> RunState:
+    """Read and verify a checkpoint of the run ``config_dict``.
+
+    Raises
+    ------
+    CheckpointError
+        Missing, unreadable, truncated or corrupted file (digest mismatch), or a
+        checkpoint of another configuration or seed.
+    """
+    import h5py
+
+    path = Path(path)
+    if not path.is_file():
+        raise CheckpointError(f"--resume: no checkpoint {str(path)!r} to resume from")
+    try:
+        with h5py.File(path, "r") as h5:
+            attrs = dict(h5.attrs)
+            arrays = {name: h5[name][()] for name in _ARRAYS}
+    except (OSError, KeyError) as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise CheckpointError(f"checkpoint {str(path)!r} is unreadable or truncated ({first}); "
+                              "it was left as it is") from None
+    if attrs.get("format") != FORMAT_NAME or int(attrs.get("format_version", -1)) != FORMAT_VERSION:
+        raise CheckpointError(f"{str(path)!r} is not a vcavity checkpoint of format {FORMAT_VERSION}")
+    state = RunState(done_blocks=arrays["done_blocks"].astype(np.int64),
+                     finished=arrays["finished"].astype(bool), reached=arrays["reached"].astype(bool),
+                     tally=arrays["tally"].astype(np.int64), stats=arrays["stats"].astype(np.int64),
+                     compute_time_s=float(attrs.get("compute_time_s", 0.0)))
+    stored_json = str(attrs.get("config", ""))
+    if _payload_digest(state, stored_json) != attrs.get("payload_sha256"):
+        raise CheckpointError(f"checkpoint {str(path)!r} is corrupted (its SHA-256 digest does not match); "
+                              "it was left as it is")
+    if attrs.get("config_digest") != config_digest(config_dict):
+        raise CheckpointError(f"checkpoint {str(path)!r} belongs to another run (its config or seed differs); "
+                              "resume with the same config and --seed, or start afresh with --overwrite")
+    return state
+
+
+def describe(path) -> dict:
+    """Summary of a checkpoint for ``vcavity info``: paths done and planned, config."""
+    import h5py
+
+    with h5py.File(path, "r") as h5:
+        return {"paths_done": int(h5.attrs["paths_done"]), "paths_planned": int(h5.attrs["paths_planned"]),
+                "config": json.loads(str(h5.attrs["config"])),
+                "compute_time_s": float(h5.attrs.get("compute_time_s", 0.0))}
+
+
+def is_checkpoint(path) -> bool:
+    """Whether ``path`` is an HDF5 file with ``format = "vcavity-checkpoint"``."""
+    import h5py
+
+    try:
+        with h5py.File(path, "r") as h5:
+            return h5.attrs.get("format") == FORMAT_NAME
+    except OSError:
+        return False

@@ -1,0 +1,158 @@
+"""``vcavity sweep`` and ``vcavity info`` on a sweep file (wired into :mod:`vcavity.cli`).
+
+Exit status as for ``run``: 0 done, 2 bad input (one line naming the field or flag, no
+file written or changed), 130 interrupted (finished points stay in the file; ``--resume``
+continues).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+_SWEEP_EPILOG = """\
+sweep file (TOML): a run config ([material], [incidence], [simulation], [output]) as the
+base, plus a [sweep] table of grid axes, each a list of values:
+  [sweep]
+  alpha = [0.1, 0.3, 0.6, 1.0]   # any parameter of the distribution or the facet model:
+  eta = [1.0, 1.5, 2.0]          #   alpha (or alpha_x, alpha_y: separate axes), gamma,
+  theta_i_deg = [0, 45, 70]      #   exponent, sigma, kd, eta; and distribution, phi_i_deg
+The grid is the Cartesian product. A point (one material: every axis but theta_i_deg and
+phi_i_deg) is one run over every incident direction; its seed is a hash of
+simulation.seed and its material, so adding or reordering values of an axis does not
+change the other points. incidence.paths (one value) is the paths of every direction.
+
+output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
+readable with xarray.open_dataset(OUT, engine="h5netcdf"); written again after every
+point, so an interrupted sweep keeps its finished points: continue it with --resume.
+docs/sweeps.md; example: runs/sweep_roughness_eta.toml
+"""
+
+
+def add_sweep_parser(sub) -> None:
+    """The ``sweep`` subcommand's arguments."""
+    sweep = sub.add_parser(
+        "sweep", help="run a grid of configs (a sweep file) into one HDF5 file",
+        description="Simulate every point of a parameter grid and write the tables into one HDF5 "
+        "file with the grid axes as leading dimensions.",
+        epilog=_SWEEP_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sweep.add_argument("sweep", metavar="SWEEP.toml", help="sweep file: a run config plus a [sweep] table")
+    sweep.add_argument("-o", "--output", metavar="OUT.h5",
+                       help="output file (default: [output].path, else SWEEP with .h5)")
+    sweep.add_argument("--resume", action="store_true",
+                       help="continue the sweep in the existing output: run only the points not done "
+                       "(refused if it holds another sweep)")
+    sweep.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    from vcavity.cli import _count
+
+    sweep.add_argument("--threads", type=_count(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    sweep.add_argument("--chunk-blocks", type=_count(1, 2**40), metavar="B",
+                       help="RNG blocks of 4096 paths per kernel call (does not change results)")
+    sweep.add_argument("--dask", metavar="ADDRESS",
+                       help="run each point's work units on a Dask cluster: a scheduler address "
+                       "(tcp://host:8786) or local:N (a LocalCluster of N workers); same file as a local run")
+    sweep.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+def cmd_sweep(args) -> int:
+    """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``."""
+    from vcavity.cli import EXIT_INTERRUPTED, _error
+
+    if args.dask is not None:
+        from vcavity.distributed import parse_address
+
+        try:
+            parse_address(args.dask)
+        except ValueError as exc:
+            return _error(str(exc))
+    from vcavity import sweep as sweep_mod
+    from vcavity import sweep_run
+    from vcavity.preflight import PreflightError
+
+    try:
+        spec = sweep_mod.load(args.sweep)
+        output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
+                                                   resume=args.resume, threads=args.threads)
+    except (sweep_mod.SweepError, PreflightError) as exc:
+        return _error(str(exc))
+    if note:
+        print(f"vcavity: {note}", file=sys.stderr)
+    executor = None
+    if args.dask is not None:
+        from vcavity.distributed import DaskExecutor
+
+        try:
+            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
+        except ImportError as exc:
+            return _error(f"--dask = {args.dask!r}: {exc}")
+    n_points = len(spec.points)
+    total = sum(spec.point_paths(p) for p in spec.points)
+    print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
+          f"{data.n_done()} done, {total:,} paths in all", file=sys.stderr)
+    try:
+        return _trace(args, spec, output, data, executor, total)
+    except KeyboardInterrupt:
+        print(f"vcavity: interrupted; {data.n_done()} of {n_points} point(s) are in {output.path} "
+              f"(continue with: vcavity sweep {args.sweep} -o {output.path} --resume)", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        if executor is not None:
+            executor.close()
+
+
+def _trace(args, spec, output, data, executor, total) -> int:
+    from vcavity import sweep_run
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.cli import EXIT_OK, _error
+    from vcavity.interrupts import DeferredInterrupt
+    from vcavity.io.sweep_table import open_sweep
+    from vcavity.sweep_report import format_sweep_summary
+
+    # Ctrl-C only sets a flag, checked between kernel calls and after each point's write:
+    # a point being written is completed, the running one is dropped.
+    with DeferredInterrupt() as interrupt:
+        bar = None
+        if not args.quiet:
+            from tqdm import tqdm
+
+            bar = tqdm(total=total, initial=sweep_run.paths_done(spec, data), unit="path", unit_scale=True,
+                       dynamic_ncols=True, desc="sweeping", file=sys.stderr)
+
+        def progress(paths_now, error):
+            interrupt.check()
+            if bar is not None:
+                bar.update(paths_now)
+
+        try:
+            sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
+                          executor=executor, on_progress=progress, on_point=lambda point, d: interrupt.check())
+        except ModelNotApplicable as exc:
+            return _error(f"simulation.estimator = 'exact-f1': {str(exc).splitlines()[0]} "
+                          f"({data.n_done()} point(s) done are in {output.path})")
+        except OSError as exc:
+            reason = exc.strerror or (str(exc).splitlines() or [type(exc).__name__])[0]
+            return _error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
+                          "the file holds the points finished before")
+        finally:
+            if bar is not None:
+                bar.close()
+    print(f"wrote {output.path}")
+    print(format_sweep_summary(open_sweep(output.path)))
+    return EXIT_OK
+
+
+def cmd_sweep_info(args) -> int:
+    """``vcavity info`` on a sweep file."""
+    from vcavity.cli import EXIT_OK, _error
+    from vcavity.io.sweep_table import SweepFormatError, open_sweep
+    from vcavity.sweep_report import format_sweep_summary
+
+    try:
+        sweep = open_sweep(args.table)
+    except (FileNotFoundError, SweepFormatError) as exc:
+        return _error(str(exc))
+    print(format_sweep_summary(sweep))
+    return EXIT_OK
+
+
+__all__ = ["add_sweep_parser", "cmd_sweep", "cmd_sweep_info"]

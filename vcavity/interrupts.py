@@ -1,0 +1,72 @@
+"""Ctrl-C that never lands inside compiled code or a half-written file.
+
+Python runs a signal handler between bytecodes; when SIGINT arrives while a Numba kernel
+runs, the default handler's ``KeyboardInterrupt`` surfaces as the kernel returns and
+CPython reports ``SystemError: CPUDispatcher(...) returned a result with an exception
+set``; inside h5py's Cython code it can be swallowed ("Exception ignored"), and the write
+carries on. :class:`DeferredInterrupt` turns SIGINT into a flag instead, which the run
+checks between kernel calls and the writer checks just before its rename, so an
+interrupt always ends the same way: no table written, the old one untouched.
+"""
+
+from __future__ import annotations
+
+import signal
+
+
+class DeferredInterrupt:
+    """Context manager: SIGINT sets :attr:`requested` instead of raising.
+
+    Outside the main thread, or where SIGINT is ignored (a background job), nothing
+    changes. The previous handler is restored on exit.
+    """
+
+    def __init__(self):
+        self.requested = False
+        self._previous = None
+
+    def _handler(self, signum, frame):
+        self.requested = True
+
+    def __enter__(self) -> "DeferredInterrupt":
+        try:
+            previous = signal.getsignal(signal.SIGINT)
+            if previous is not signal.SIG_IGN:
+                signal.signal(signal.SIGINT, self._handler)
+                self._previous = previous
+        except ValueError:  # not the main thread: signals are not ours to handle
+            self._previous = None
+        return self
+
+    def __exit__(self, *exc_info) -> bool:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+        return False
+
+    def check(self) -> None:
+        """Raise ``KeyboardInterrupt`` if SIGINT arrived (call it from plain Python code)."""
+        if self.requested:
+            raise KeyboardInterrupt
+
+    def cancelled(self) -> bool:
+        """Whether SIGINT arrived (the writer's ``cancelled`` hook)."""
+        return self.requested
+
+
+def is_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` is, or was caused by, a ``KeyboardInterrupt``.
+
+    Covers the ``SystemError`` CPython raises when the default handler's exception is set
+    while a compiled function returns (during the compile-time test call of a kernel).
+    """
+    seen = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+__all__ = ["DeferredInterrupt", "is_interrupt"]

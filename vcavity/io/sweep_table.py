@@ -1,0 +1,320 @@
+"""Sweep files: the tables of a parameter grid in one HDF5 file (docs/sweeps.md).
+
+A sweep file is a netCDF-4 compatible HDF5 file, like a table (docs/hdf5-format.md), whose
+leading dimensions are the grid axes of the sweep, named as the ``[sweep]`` keys
+(``alpha``, ``eta``, ``theta_i_deg``, ...), each a dimension scale holding its values as
+written, with units where physical. After them come the table's ``order`` and ``cell``::
+
+    brdf(alpha, eta, theta_i_deg, order, cell)      counts, brdf_stderr alike
+    albedo(alpha, eta, theta_i_deg, order)
+    paths(alpha, eta, theta_i_deg)                  absorbed, truncated, ... per direction
+    seed(alpha, eta), done(alpha, eta)              per point: one run of one material
+
+so ``xarray.open_dataset(path, engine="h5netcdf")`` gives a labelled dataset with no
+custom code. A *point* is one material (a position on every axis but ``theta_i_deg`` and
+``phi_i_deg``); it is run as one run over every incident direction of the grid. Values of
+points not yet done are NaN (floats) or 0 (integers) with ``done = 0``.
+
+Like the other files of vcavity this module imports h5py and no Numba (``vcavity info``
+reads a sweep without compiling anything); files are always written whole and atomically
+(:func:`vcavity.io.atomic.replace_atomically`).
+"""
+
+from __future__ import annotations
+
+import datetime
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from vcavity import __version__ as _VCAVITY_VERSION
+from vcavity.io import schema
+from vcavity.io.atomic import replace_atomically
+
+FORMAT_NAME = "vcavity-sweep"
+FORMAT_VERSION = 1
+INCIDENCE_AXES = ("theta_i_deg", "phi_i_deg")
+#: radians companion (auxiliary coordinate) of each incidence axis
+RADIANS = {"theta_i_deg": "theta_i", "phi_i_deg": "phi_i"}
+
+# name -> (shape kind, dtype, units, long_name, description). Kinds: "cell" (grid, order,
+# cell), "order" (grid, order), "direction" (grid), "point" (the point axes only).
+_SHARED = ("brdf", "brdf_stderr", "counts", "albedo", "absorbed", "truncated", "degenerate",
+           "paths", "unbinned_paths", "folded", "relative_error", "target_reached", "max_bounces_seen")
+_KIND = {"brdf": "cell", "brdf_stderr": "cell", "counts": "cell", "albedo": "order"}
+_DTYPE = {"counts": np.int64, "paths": np.int64, "unbinned_paths": np.int64, "max_bounces_seen": np.int64,
+          "folded": np.int8, "target_reached": np.int8}
+VARIABLES = {name: (_KIND.get(name, "direction"), _DTYPE.get(name, np.float64), *schema.DATASETS[name][1:])
+             for name in _SHARED}
+VARIABLES.update({
+    "seed": ("point", np.uint64, "1", "seed of the point's run",
+             "Seed of the run of this point: first 8 bytes (little-endian) of SHA-256 of the "
+             "sweep seed and the point's material (docs/sweeps.md, 'Seeds')"),
+    "done": ("point", np.int8, "1", "point finished",
+             "1 when every incident direction of this point is traced and stored, else 0 "
+             "(its values are then NaN or 0)"),
+    "compute_time_s": ("point", np.float64, "s", "tracing time of the point",
+                       "Seconds spent tracing this point (not part of the result)"),
+})
+FLAGS = dict(schema.FLAGS, done=((0, 1), "pending done"))
+#: variables that record how long things took: they differ between identical sweeps
+TIMING = ("compute_time_s",)
+CELL_GEOMETRY = ("theta_o", "phi_o", "cell_center", "cell_solid_angle", "cell_projected_solid_angle")
+ROOT_DESCRIPTION = ("Monte-Carlo BRDF tables of microfacet V-cavity surfaces over a parameter grid: "
+                    "the grid axes are the leading dimensions, then order and cell as in a vcavity "
+                    "table. Layout: docs/sweeps.md of vcavity.")
+
+
+class SweepFormatError(ValueError):
+    """A file is not a readable vcavity sweep (one line)."""
+
+
+@dataclass(frozen=True)
+class GridAxis:
+    """One axis of the grid: its name (the ``[sweep]`` key), values, units, meaning."""
+
+    name: str
+    values: tuple
+    units: str | None = "1"
+    long_name: str = ""
+
+    @property
+    def is_text(self) -> bool:
+        """Whether the values are names (``distribution``), not numbers."""
+        return any(isinstance(v, str) for v in self.values)
+
+    def array(self) -> np.ndarray:
+        """The values as stored: float64, or variable-length UTF-8 strings."""
+        if self.is_text:
+            return np.array(list(self.values), dtype=h5py.string_dtype())
+        return np.array([float(v) for v in self.values], dtype=np.float64)
+
+
+@dataclass
+class SweepData:
+    """Everything a sweep file holds, in memory (see module doc).
+
+    ``axes`` are the grid axes in file order; ``point_axes`` the names of those that index
+    a point (all but the incidence axes). ``scalars`` holds the incidence angles that are
+    not swept (``{"phi_i_deg": 0.0}``: stored as scalar coordinates). ``data`` maps each
+    name of :data:`VARIABLES` to its array, ``cells`` the sensor geometry, ``attrs`` the
+    root attributes (spec, digest, seed, ...), ``material`` what every point shares.
+    """
+
+    axes: tuple[GridAxis, ...]
+    point_axes: tuple[str, ...]
+    order: np.ndarray
+    cells: dict
+    attrs: dict
+    material: dict = field(default_factory=dict)
+    scalars: dict = field(default_factory=dict)
+    data: dict = field(default_factory=dict)
+    path: Path | None = None
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Sizes of the grid axes."""
+        return tuple(len(a.values) for a in self.axes)
+
+    @property
+    def point_shape(self) -> tuple[int, ...]:
+        """Sizes of the point axes."""
+        return tuple(len(a.values) for a in self.axes if a.name in self.point_axes)
+
+    def dims(self, name: str) -> tuple[str, ...]:
+        """Dimension names of variable ``name``."""
+        kind = VARIABLES[name][0]
+        grid = tuple(a.name for a in self.axes)
+        return {"cell": grid + ("order", "cell"), "order": grid + ("order",), "direction": grid,
+                "point": tuple(self.point_axes)}[kind]
+
+    def allocate(self) -> None:
+        """Fill :attr:`data` with the arrays of a sweep where nothing is done yet."""
+        sizes = {a.name: len(a.values) for a in self.axes}
+        sizes.update(order=len(self.order), cell=len(self.cells["theta_o"]))
+        for name, (_, dtype, *_rest) in VARIABLES.items():
+            shape = tuple(sizes[d] for d in self.dims(name))
+            fill = np.nan if dtype == np.float64 else (-1 if name == "target_reached" else 0)
+            self.data[name] = np.full(shape, fill, dtype=dtype)
+
+    def n_done(self) -> int:
+        """Points finished."""
+        return int(np.sum(self.data["done"] == 1))
+
+
+def _coordinates(sweep: SweepData, dims: tuple[str, ...]) -> str | None:
+    """CF ``coordinates`` of a variable on ``dims``: radians of the incidence axes, the
+    scalar (not swept) incidence angles, and the cell angles."""
+    names = [RADIANS[d] for d in dims if d in RADIANS]
+    if "theta_i_deg" in dims:
+        names += [n for key in sweep.scalars for n in (key, RADIANS[key])]
+    if "cell" in dims:
+        names += ["theta_o", "phi_o"]
+    return " ".join(names) or None
+
+
+def _describe(dataset, units, long_name, description, coordinates=None) -> None:
+    if units is not None:
+        dataset.attrs["units"] = units
+    dataset.attrs["long_name"] = long_name
+    dataset.attrs["description"] = description
+    if coordinates:
+        dataset.attrs["coordinates"] = coordinates
+
+
+def _fill(h5, sweep: SweepData) -> None:
+    """Write every dataset of ``sweep`` into the open file ``h5`` (see module doc)."""
+    root = {"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
+            "description": ROOT_DESCRIPTION, "conventions": schema.CONVENTIONS,
+            "vcavity_version": _VCAVITY_VERSION,
+            "created_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "grid_axes": " ".join(a.name for a in sweep.axes), "point_axes": " ".join(sweep.point_axes)}
+    root.update(sweep.attrs)
+    h5.attrs.update(root)
+    for axis in sweep.axes:
+        scale = h5.create_dataset(axis.name, data=axis.array(), track_order=True)
+        _describe(scale, axis.units, axis.long_name or axis.name,
+                  f"Grid axis {axis.name}: the values of [sweep] {axis.name} as written")
+        scale.make_scale(axis.name)
+    for name, values in (("order", sweep.order), ("cell", np.arange(len(sweep.cells["theta_o"]))),
+                         ("xyz", np.array([b"x", b"y", b"z"], dtype="S1"))):
+        scale = h5.create_dataset(name, data=values, track_order=True)
+        _describe(scale, *schema.DATASETS[name][1:])
+        scale.make_scale(name)
+    for axis in sweep.axes:
+        if axis.name in RADIANS:
+            rad = h5.create_dataset(RADIANS[axis.name], data=np.radians(axis.array()), track_order=True)
+            _describe(rad, *schema.DATASETS[RADIANS[axis.name]][1:])
+            rad.dims[0].attach_scale(h5[axis.name])
+    for key, value in sweep.scalars.items():  # incidence angles that are not swept: 0-d coordinates
+        for name, number in ((key, value), (RADIANS[key], np.radians(value))):
+            _describe(h5.create_dataset(name, data=np.float64(number)), *schema.DATASETS[name][1:])
+    for name, (kind, dtype, units, long_name, description) in VARIABLES.items():
+        data = np.asarray(sweep.data[name], dtype=dtype)
+        dims = sweep.dims(name)
+        options = {}
+        if kind == "cell" and data.size:  # one chunk = all orders and cells of one direction
+            options = dict(chunks=(1,) * (data.ndim - 2) + data.shape[-2:], compression="gzip",
+                           compression_opts=1, shuffle=True)
+        dataset = h5.create_dataset(name, data=data, track_order=True, **options)
+        _describe(dataset, units, long_name, description, _coordinates(sweep, dims))
+        if name in FLAGS:
+            dataset.attrs["flag_values"] = np.array(FLAGS[name][0], dtype=np.int8)
+            dataset.attrs["flag_meanings"] = FLAGS[name][1]
+        for position, dim in enumerate(dims):
+            dataset.dims[position].attach_scale(h5[dim])
+    for name in CELL_GEOMETRY:
+        data = np.asarray(sweep.cells[name], dtype=np.float64)
+        dataset = h5.create_dataset(name, data=data, track_order=True)
+        _describe(dataset, *schema.DATASETS[name][1:])
+        dataset.dims[0].attach_scale(h5["cell"])
+        if data.ndim == 2:
+            dataset.dims[1].attach_scale(h5["xyz"])
+    group = h5.create_group("material", track_order=True)
+    group.attrs["description"] = "Material parameters every point of the sweep shares"
+    for key, value in sweep.material.items():
+        group.attrs[key] = value
+
+
+def write_sweep(path, sweep: SweepData) -> None:
+    """Write ``sweep`` to ``path`` atomically (temporary file, fsync, rename).
+
+    Raises
+    ------
+    OSError
+        The file could not be written; ``path`` is untouched, no temporary file is left.
+    """
+    def fill(temporary: Path) -> None:
+        with h5py.File(temporary, "w", track_order=True) as h5:
+            _fill(h5, sweep)
+
+    replace_atomically(path, fill)
+
+
+def _text(value):
+    return value.decode("utf-8") if isinstance(value, bytes) else value
+
+
+def is_sweep_file(path) -> bool:
+    """Whether ``path`` is an HDF5 file of format ``vcavity-sweep`` (False when unreadable)."""
+    try:
+        with h5py.File(path, "r") as h5:
+            return _text(h5.attrs.get("format")) == FORMAT_NAME
+    except (OSError, ValueError):
+        return False
+
+
+def open_sweep(path) -> SweepData:
+    """Read a sweep file into memory.
+
+    Raises
+    ------
+    FileNotFoundError
+        No file at ``path``.
+    SweepFormatError
+        Not a readable sweep file of a supported version (one line).
+    """
+    location = Path(path)
+    if not location.exists():
+        raise FileNotFoundError(f"sweep {str(location)!r}: no such file")
+    try:
+        with h5py.File(location, "r") as h5:
+            return _read(h5, location)
+    except OSError as exc:
+        raise SweepFormatError(f"sweep {str(location)!r}: not a readable HDF5 file "
+                               f"({str(exc).splitlines()[0] if str(exc) else type(exc).__name__})") from None
+    except (KeyError, ValueError, TypeError, IndexError) as exc:
+        if isinstance(exc, SweepFormatError):
+            raise
+        raise SweepFormatError(f"sweep {str(location)!r}: damaged or incomplete "
+                               f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''})") from None
+
+
+def _read(h5, location: Path) -> SweepData:
+    attrs = {key: _text(value.item() if isinstance(value, np.generic) else value) for key, value in h5.attrs.items()}
+    if attrs.get("format") != FORMAT_NAME:
+        raise SweepFormatError(f"sweep {str(location)!r}: not a vcavity sweep file (format = {attrs.get('format')!r})")
+    if attrs.get("format_version") != FORMAT_VERSION:
+        raise SweepFormatError(f"sweep {str(location)!r}: format_version {attrs.get('format_version')!r} "
+                               f"is not readable by this vcavity (reads {FORMAT_VERSION})")
+    names = str(attrs["grid_axes"]).split()
+    axes = []
+    for name in names:
+        dataset = h5[name]
+        values = [_text(v) for v in dataset[()].tolist()]
+        axes.append(GridAxis(name, tuple(values), _text(dataset.attrs.get("units")),
+                             _text(dataset.attrs.get("long_name", name))))
+    sweep = SweepData(axes=tuple(axes), point_axes=tuple(str(attrs["point_axes"]).split()),
+                      order=h5["order"][()], cells={name: h5[name][()] for name in CELL_GEOMETRY},
+                      attrs={k: v for k, v in attrs.items() if k not in ("format", "format_version", "created_utc",
+                                                                         "grid_axes", "point_axes", "description",
+                                                                         "conventions", "vcavity_version")},
+                      material={k: _text(v.item() if isinstance(v, np.generic) else v)
+                                for k, v in h5["material"].attrs.items() if k != "description"},
+                      scalars={key: float(h5[key][()]) for key in INCIDENCE_AXES
+                               if key not in names and key in h5},
+                      path=location)
+    sweep.attrs["vcavity_version"] = attrs.get("vcavity_version")
+    sweep.attrs["created_utc"] = attrs.get("created_utc")
+    for name, (_, dtype, *_rest) in VARIABLES.items():
+        array = h5[name][()]
+        sizes = {a.name: len(a.values) for a in axes}
+        sizes.update(order=len(sweep.order), cell=len(sweep.cells["theta_o"]))
+        expected = tuple(sizes[d] for d in sweep.dims(name))
+        if array.shape != expected:
+            raise SweepFormatError(f"sweep {str(location)!r}: dataset {name} has shape {array.shape}, "
+                                   f"expected {expected}")
+        sweep.data[name] = array.astype(dtype, copy=False)
+    return sweep
+
+
+def spec_of(sweep: SweepData) -> dict:
+    """The sweep specification stored in the file (the parsed ``spec`` attribute)."""
+    return json.loads(sweep.attrs.get("spec", "{}"))
+
+
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "GridAxis", "SweepData", "SweepFormatError", "VARIABLES",
+           "is_sweep_file", "open_sweep", "spec_of", "write_sweep"]

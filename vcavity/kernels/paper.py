@@ -1,0 +1,163 @@
+"""The IL paper's own estimator (IL eq. 23, physics.md sec. 11): start on a facet, weight
+by its lit projected area.
+
+Instead of entering the groove through a uniform point of its opening, a path starts at a
+uniform point ``x`` of one of the groove's two facets (each with probability 1/2). Light
+from ``i`` reaches that point with flux density ``(i.m_f) V(x)`` per unit facet length
+(``V`` = 1 when the segment from ``x`` toward the light leaves through the opening), while
+the light entering the opening (width 2) carries ``2 (i.n)``; the facet has length
+``L = 1 / (m.n)``. The path's weight is the ratio of the two densities,
+
+    w = (i.m_f) V(x) / ((i.n) (m.n)),        E[w] = 1,
+
+so back-facing and shadowed starting points have weight 0 and are not traced. From the
+first event on, the walk is the uniform-entry walk of :mod:`vcavity.kernels.trace`.
+
+Weights are summed as integers: ``q = floor(w Q + u)`` with ``Q = 2^16`` and a fresh
+uniform ``u`` (stochastic rounding, so ``E[q] / Q = w`` exactly), and ``q^2`` for the
+variance. Merging stays exact in any order, so tables do not depend on threads or
+chunking; one cell's ``Σ q^2`` stays below 2^63 up to ~10^12 paths of weight 1.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from vcavity._jit import njit
+from vcavity.binning import direction_to_cell
+from vcavity.facet import registry as facets
+from vcavity.facet.common import ABSORBED as FACET_ABSORBED
+from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
+from vcavity.kernels.trace import _SOURCE_TAG, _sample_groove
+from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
+
+#: Fixed-point scale of the integer weights.
+WEIGHT_SCALE = 65536.0
+
+# per-slot statistics: weight sums (in units of 1/WEIGHT_SCALE) and path counts
+PAPER_ABSORBED = 0
+PAPER_TRUNCATED = 1
+PAPER_DEGENERATE = 2
+PAPER_MAX_BOUNCES = 3
+PAPER_ZERO_WEIGHT = 4  # paths with w = 0: back-facing or shadowed start, not traced
+PAPER_ABSORBED_PATHS = 5
+PAPER_TRUNCATED_PATHS = 6
+PAPER_DEGENERATE_PATHS = 7
+N_PAPER_STATS = 8
+
+_KERNELS: dict[tuple[int, int, int], object] = {}
+
+
+def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
+    """The jitted paper-estimator walk for one scene (built once per process).
+
+    Signature::
+
+        kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+               max_bounces, max_order, resolution, n_slots)
+            -> (weights[n_slots, max_order + 1, n_cells], squares[...], counts[...],
+                stats[n_slots, N_PAPER_STATS]), all int64
+
+    ``weights`` holds Σ q and ``squares`` Σ q^2 of the paths of each order slot (slot 0:
+    beyond max_order) and cell, ``counts`` the number of those paths. Blocks and slots as
+    in :func:`vcavity.kernels.trace.get_kernel`.
+    """
+    key = (int(dist_kind), int(facet_kind), int(facet_variant))
+    if key in _KERNELS:
+        return _KERNELS[key]
+    DIST, FACET, VARIANT = key
+    SOURCE_TAG = _SOURCE_TAG
+
+    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+               max_bounces, max_order, resolution, n_slots):
+        _ = SOURCE_TAG
+        n_cells = resolution * resolution
+        weights = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
+        squares = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
+        counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
+        stats = np.zeros((n_slots, N_PAPER_STATS), np.int64)
+        ix = incident[0]
+        iy = incident[1]
+        iz = incident[2]
+        for slot in prange(n_slots):
+            for b in range(slot, n_blocks, n_slots):
+                block = first_block + b
+                n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
+                state = block_key(direction_key, block)
+                for _ in range(n_here):
+                    state, tan_m, cos_phi, sin_phi = _sample_groove(state, DIST, params)
+                    if tan_m < 1e150:
+                        cos_t = 1.0 / math.sqrt(1.0 + tan_m * tan_m)
+                        sin_t = tan_m * cos_t
+                    else:
+                        cos_t = 1.0 / tan_m
+                        sin_t = 1.0
+                    dx = -(ix * cos_phi + iy * sin_phi)
+                    dy = -(iy * cos_phi - ix * sin_phi)
+                    dz = -iz
+                    state, u0 = next_uniform(state)
+                    if u0 < 0.5:  # a uniform point of the left facet, x in (-1, 0]
+                        surface = LEFT
+                        x = -2.0 * u0
+                        nx = sin_t
+                        cos_in = -(dz + tan_m * dx) * cos_t
+                    else:  # of the right facet, x in [0, 1)
+                        surface = RIGHT
+                        x = 2.0 * u0 - 1.0
+                        nx = -sin_t
+                        cos_in = -(dz - tan_m * dx) * cos_t
+                    lit = cos_in > 0.0
+                    if lit:  # visible from the light: toward i the segment leaves the groove
+                        toward, _x = next_surface(surface, x, -dx, -dz, tan_m)
+                        lit = toward == OPENING
+                    if not lit:
+                        stats[slot, PAPER_ZERO_WEIGHT] += 1
+                        continue
+                    state, u_round = next_uniform(state)
+                    q = np.int64(math.floor(cos_in / (iz * cos_t) * WEIGHT_SCALE + u_round))
+                    k = 0
+                    fate = 0  # 0 exit, 1 absorbed, 2 truncated, 3 degenerate
+                    while True:
+                        k += 1
+                        state, event, dx, dy, dz = facets.event(FACET, VARIANT, state, dx, dy, dz, cos_in,
+                                                                nx, cos_t, facet_data)
+                        if event == FACET_ABSORBED:
+                            fate = 1
+                            break
+                        surface, x = next_surface(surface, x, dx, dz, tan_m)
+                        if surface == OPENING:
+                            break
+                        if surface == NO_HIT:
+                            fate = 3
+                            break
+                        if k == max_bounces:
+                            fate = 2
+                            break
+                        if surface == LEFT:
+                            nx = sin_t
+                            cos_in = -(dz + tan_m * dx) * cos_t
+                        else:
+                            nx = -sin_t
+                            cos_in = -(dz - tan_m * dx) * cos_t
+                    stats[slot, PAPER_MAX_BOUNCES] = max(stats[slot, PAPER_MAX_BOUNCES], k)
+                    if fate == 0:
+                        wx = dx * cos_phi - dy * sin_phi
+                        wy = dx * sin_phi + dy * cos_phi
+                        inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
+                        cell = direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
+                        order = k if k <= max_order else 0
+                        weights[slot, order, cell] += q
+                        squares[slot, order, cell] += q * q
+                        counts[slot, order, cell] += 1
+                    else:
+                        stats[slot, fate - 1] += q
+                        stats[slot, PAPER_ABSORBED_PATHS + fate - 1] += 1
+        return weights, squares, counts, stats
+
+    kernel.__qualname__ = kernel.__name__ = f"paper_kernel_d{DIST}_f{FACET}_v{VARIANT}"
+    kernel = njit(cache=True, parallel=True)(kernel)
+    _KERNELS[key] = kernel
+    return kernel

@@ -1,0 +1,367 @@
+"""Parameter sweeps: a grid of runs from one TOML file (docs/sweeps.md).
+
+A sweep file is a run config (``[material]``, ``[incidence]``, ``[simulation]``,
+``[output]``: the base) plus a ``[sweep]`` table whose keys are grid axes with lists of
+values::
+
+    [sweep]
+    alpha = [0.1, 0.3, 0.6, 1.0]     # any parameter of the distribution or facet model
+    eta = [1.0, 1.5]                 # (alpha_x and alpha_y are two separate axes)
+    theta_i_deg = [0, 45, 70]        # and distribution, phi_i_deg
+
+The grid is the Cartesian product; a value in ``[sweep]`` replaces the base's value of
+that key. A *point* is one material: a position on every axis except ``theta_i_deg`` and
+``phi_i_deg``, which are the incident directions of the point's run. Every point's
+config is validated before anything is traced (one-line :class:`SweepError` naming the
+field as written: ``sweep.alpha[2] = -1: must be > 0``).
+
+Seeds: a point's run has the seed :func:`point_seed` (a hash of the sweep seed,
+``simulation.seed``, and the point's canonical material), and its directions are keyed by
+their angles as in any run (:func:`vcavity.rng.direction_key`), so adding, removing or
+reordering axis values never changes the other points' counts, and a point's counts
+equal those of a plain run of its config.
+
+Running and resuming are in :mod:`vcavity.sweep_run`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import itertools
+import json
+import math
+import tomllib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from vcavity import config as config_mod
+from vcavity.config import ConfigError, RunConfig
+from vcavity.facet import registry as facets
+from vcavity.io.sweep_table import INCIDENCE_AXES, GridAxis, SweepData
+from vcavity.microfacet import registry as distributions
+from vcavity.rng import BLOCK_SIZE
+from vcavity.sensor import EqualAreaSensor
+
+#: Most grid positions (points x directions) of one sweep: validation stays within seconds.
+MAX_GRID_POINTS = 100_000
+_ROUGHNESS = ("alpha", "alpha_x", "alpha_y")
+_SEED_TAG = "vcavity-sweep-point-v1"
+
+
+class SweepError(ConfigError):
+    """Invalid sweep file; one line naming the field as written, the value, what is accepted."""
+
+
+def _material_keys() -> tuple[str, ...]:
+    keys = [k for name in distributions.NAMES for k in distributions.config_keys(name)]
+    keys += [k for name in facets.NAMES for k in facets.config_keys(name)]
+    return tuple(dict.fromkeys(keys))
+
+
+def axis_keys() -> tuple[str, ...]:
+    """Keys a ``[sweep]`` table accepts: distribution, every registered parameter, the angles."""
+    return ("distribution",) + _material_keys() + INCIDENCE_AXES
+
+
+def _spec_of(key: str):
+    for module in distributions.MODULES + facets.MODULES:
+        for spec in module.PARAMETERS:
+            if key in spec.keys:
+                return spec
+    return None
+
+
+def _axis(key: str, values) -> GridAxis:
+    """A grid axis with units and a long name from the parameter's declaration."""
+    if key == "distribution":
+        return GridAxis(key, tuple(values), None, "microfacet distribution")
+    if key in INCIDENCE_AXES:
+        long_name = "incident polar angle" if key == "theta_i_deg" else "incident azimuth"
+        return GridAxis(key, tuple(values), "degree", long_name)
+    spec = _spec_of(key)
+    return GridAxis(key, tuple(values), getattr(spec, "units", "1"), spec.summary)
+
+
+def point_seed(sweep_seed: int, material) -> int:
+    """Seed of a point's run: the first 8 bytes, little-endian, of SHA-256 of
+    ``"vcavity-sweep-point-v1\\n" + JSON({"seed": sweep_seed, "material": material.to_dict()})``
+    (keys sorted, floats as Python's shortest round-trip repr, -0.0 as 0.0).
+
+    The canonical material (``alpha`` stored as ``alpha_x``, ``alpha_y``) is hashed, not
+    the point's position, so a point keeps its counts whatever else the grid holds.
+    """
+    values = {k: (v + 0.0 if isinstance(v, float) else v) for k, v in material.to_dict().items()}
+    text = json.dumps({"seed": int(sweep_seed), "material": values}, sort_keys=True)
+    digest = hashlib.sha256((_SEED_TAG + "\n" + text).encode()).digest()
+    return int.from_bytes(digest[:8], "little")
+
+
+@dataclass(frozen=True)
+class Point:
+    """One material of the grid: its position on the point axes and its validated run
+    (every incident direction of the grid, theta-major; seed :func:`point_seed`)."""
+
+    index: tuple[int, ...]
+    config: RunConfig
+
+
+@dataclass(frozen=True)
+class Sweep:
+    """A validated sweep: grid axes (file order), points, seeds and the spec's digest."""
+
+    axes: tuple[GridAxis, ...]
+    point_axes: tuple[str, ...]
+    points: tuple[Point, ...]
+    seed: int
+    digest: str
+    spec: dict
+    source: str
+    output: Path | None
+    n_phi: int
+    scalars: dict
+
+    @property
+    def n_directions(self) -> int:
+        """Incident directions of every point."""
+        return len(self.points[0].config.incidence)
+
+    def grid_index(self, point: Point, direction: int) -> tuple[int, ...]:
+        """Position on the grid axes of direction ``direction`` of ``point``."""
+        where = dict(zip(self.point_axes, point.index))
+        where["theta_i_deg"], where["phi_i_deg"] = divmod(direction, self.n_phi)
+        return tuple(where[a.name] for a in self.axes)
+
+    def point_paths(self, point: Point) -> int:
+        """Paths planned for a point (with a target error: the caps)."""
+        return sum(point.config.path_budget(d) for d in point.config.incidence)
+
+    def new_data(self) -> SweepData:
+        """The in-memory sweep file before any point is run (seeds filled in)."""
+        first = self.points[0].config
+        sensor = EqualAreaSensor(first.sensor_resolution)
+        cells = {"theta_o": sensor.cell_theta, "phi_o": sensor.cell_phi, "cell_center": sensor.cell_center,
+                 "cell_solid_angle": sensor.cell_solid_angle,
+                 "cell_projected_solid_angle": sensor.cell_projected_solid_angle}
+        attrs = {"seed": np.uint64(self.seed), "spec": json.dumps(self.spec, sort_keys=True, default=str),
+                 "spec_digest": self.digest, "source": self.source, "estimator": first.estimator,
+                 "block_size": np.int64(BLOCK_SIZE), "max_bounces": np.int64(first.effective_max_bounces),
+                 "max_order": np.int64(first.max_order), "track_all_orders": np.int8(first.track_all_orders),
+                 "sensor_partition": sensor.partition, "sensor_resolution": np.int64(sensor.resolution),
+                 "n_cells": np.int64(sensor.n_cells),
+                 "target_error": float("nan") if first.target_error is None else float(first.target_error)}
+        data = SweepData(axes=self.axes, point_axes=self.point_axes, order=np.array(first.orders, np.int64),
+                         cells=cells, attrs=attrs, material=_shared_material(self.points),
+                         scalars=dict(self.scalars))
+        data.allocate()
+        for point in self.points:
+            data.data["seed"][point.index] = point.config.seed
+        return data
+
+
+def _shared_material(points) -> dict:
+    """Canonical material values that are the same at every point (stored in /material)."""
+    shared = dict(points[0].config.material.to_dict())
+    for point in points[1:]:
+        values = point.config.material.to_dict()
+        shared = {k: v for k, v in shared.items() if k in values and values[k] == v}
+    return shared
+
+
+def _fail(field: str, value: Any, accepted: str):
+    raise SweepError(f"{field} = {value!r}: {accepted}")
+
+
+def _structure(raw: dict) -> tuple[dict, dict]:
+    """``(base, axes)``: the run tables and the ``[sweep]`` lists, structurally checked."""
+    if not isinstance(raw, dict):
+        _fail("sweep file", raw, "must be a TOML document")
+    if "sweep" not in raw:
+        raise SweepError("sweep is missing: a sweep file needs a [sweep] table of axes with lists of "
+                         "values, e.g. alpha = [0.1, 0.5] (a plain run config runs with vcavity run)")
+    table = raw["sweep"]
+    accepted = ", ".join(axis_keys())
+    if not isinstance(table, dict) or not table:
+        _fail("sweep", table, f"must be a table with at least one axis; accepted axes: {accepted}")
+    for key, values in table.items():
+        if key not in axis_keys():
+            _fail(f"sweep.{key}", values, f"not a sweep axis; accepted: {accepted}")
+        if not isinstance(values, list) or not values:
+            _fail(f"sweep.{key}", values, f"must be a non-empty list of values, e.g. {key} = [a, b]")
+        for i, value in enumerate(values):
+            if isinstance(value, (list, dict)):
+                _fail(f"sweep.{key}[{i}]", value, "must be a single value")
+    if "alpha" in table:
+        for key in ("alpha_x", "alpha_y"):
+            if key in table:
+                _fail(f"sweep.{key}", table[key], "give either alpha (isotropic) or alpha_x and alpha_y, not both")
+    base = {key: value for key, value in raw.items() if key != "sweep"}
+    for name in ("material", "incidence"):
+        if not isinstance(base.get(name, {}), dict):
+            _fail(name, base[name], "must be a TOML table")
+    return base, table
+
+
+def _applicability(table: dict, material: dict) -> None:
+    """Every parameter axis must be a parameter of every distribution (and the facet) in play."""
+    dists = table.get("distribution", [material.get("distribution", "beckmann")])
+    for i, name in enumerate(table.get("distribution", ())):
+        if name not in distributions.NAMES:
+            _fail(f"sweep.distribution[{i}]", name, f"accepted: {', '.join(distributions.NAMES)}")
+    facet = material.get("facet", "interfaced_lambertian")
+    dist_keys = {k for n in distributions.NAMES for k in distributions.config_keys(n)}
+    for key, values in table.items():
+        if key in dist_keys:
+            for j, name in enumerate(dists):
+                if name in distributions.NAMES and key not in distributions.config_keys(name):
+                    where = f" (sweep.distribution[{j}])" if "distribution" in table else ""
+                    _fail(f"sweep.{key}", values, f"not a parameter of distribution {name!r}{where} "
+                          f"(it takes: {', '.join(distributions.config_keys(name)) or 'nothing'})")
+        elif key not in INCIDENCE_AXES and key != "distribution" and facet in facets.NAMES \
+                and key not in facets.config_keys(facet):
+            _fail(f"sweep.{key}", values, f"not used by facet {facet!r} "
+                  f"(it takes: {', '.join(facets.config_keys(facet)) or 'nothing'})")
+
+
+def _one_value(incidence: dict, key: str) -> Any:
+    """A base incidence value a sweep needs single (paths, an azimuth that is not swept)."""
+    value = incidence.get(key)
+    if isinstance(value, list):
+        if len(value) != 1:
+            hint = "sweep azimuths with [sweep] phi_i_deg" if key == "phi_i_deg" else \
+                "every direction of every point gets the same number"
+            _fail(f"incidence.{key}", value, f"a sweep takes one value here ({hint})")
+        return value[0]
+    return value
+
+
+def _check_directions(field: str, key: str, values: list, phi, paths, indexed: bool = True) -> None:
+    """Validate each incident angle (or the paths) alone, naming ``field[i]`` (``indexed``)."""
+    material = config_mod.DEFAULT_RAW["material"]
+    for i, value in enumerate(values):
+        incidence = {"theta_i_deg": [0.0], "phi_i_deg": 0.0, "paths": paths}
+        incidence[key] = [value] if key == "theta_i_deg" else value
+        if key == "theta_i_deg" and phi is not None:
+            incidence["phi_i_deg"] = phi
+        try:
+            config_mod.validate({"material": material, "incidence": incidence})
+        except ConfigError as exc:
+            message = str(exc)
+            name = message.split(" ", 1)[0]
+            if name != f"incidence.{key}":
+                raise SweepError(message) from None
+            raise SweepError(field + (f"[{i}]" if indexed else "") + message[len(name):]) from None
+
+
+def _check_distinct(field: str, values: list) -> None:
+    seen = {}
+    for i, value in enumerate(values):
+        canonical = value if isinstance(value, str) else float(value)
+        if canonical in seen:
+            _fail(f"{field}[{i}]", value, f"repeats {field}[{seen[canonical]}]; the values of an axis must differ")
+        seen[canonical] = i
+
+
+def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> Sweep:
+    """Validate a parsed sweep file: every point's config, before anything runs.
+
+    Raises
+    ------
+    SweepError
+        One line naming the field as written (``sweep.alpha[2]``, ``material.kd``), the
+        value and what is accepted.
+    """
+    base, table = _structure(raw)
+    material = dict(base.get("material", {}))
+    for key in table:  # a swept roughness replaces the base's roughness keys
+        if key in _ROUGHNESS:
+            for other in (("alpha_x", "alpha_y") if key == "alpha" else ("alpha",)):
+                material.pop(other, None)
+    _applicability(table, material)
+    incidence = dict(base.get("incidence", {}))
+    paths = _one_value(incidence, "paths")
+    paths = config_mod.DEFAULT_PATHS if paths is None else paths
+    theta_field = "sweep.theta_i_deg" if "theta_i_deg" in table else "incidence.theta_i_deg"
+    thetas = table.get("theta_i_deg", incidence.get("theta_i_deg", [0.0]))
+    theta_listed = isinstance(thetas, list)
+    thetas = thetas if theta_listed else [thetas]
+    phi_listed = "phi_i_deg" in table
+    phis = table["phi_i_deg"] if phi_listed else [_one_value(incidence, "phi_i_deg") or 0.0]
+    point_keys = tuple(k for k in table if k not in INCIDENCE_AXES)
+    n_grid = math.prod(len(table[k]) for k in point_keys) * len(thetas) * len(phis)
+    if n_grid > MAX_GRID_POINTS:
+        sizes = " x ".join(str(len(v)) for v in [*(table[k] for k in point_keys), thetas, phis])
+        _fail("sweep", f"{sizes} grid", f"{n_grid:,} grid positions; at most {MAX_GRID_POINTS:,} per sweep file")
+    _check_directions("incidence.paths", "paths", [paths], None, paths, indexed=False)
+    _check_directions("sweep.phi_i_deg" if phi_listed else "incidence.phi_i_deg", "phi_i_deg", phis, None, paths,
+                      indexed=phi_listed)
+    _check_directions(theta_field, "theta_i_deg", thetas, phis[0], paths, indexed=theta_listed)
+    directions = {"theta_i_deg": [t for t in thetas for _ in phis], "phi_i_deg": [p for _ in thetas for p in phis],
+                  "paths": paths}
+    points, digest, base_cfg = [], hashlib.sha256(), None
+    for index in itertools.product(*(range(len(table[k])) for k in point_keys)):
+        values = {k: table[k][i] for k, i in zip(point_keys, index)}
+        try:
+            cfg = config_mod.validate({**base, "material": {**material, **values},
+                                       "incidence": {**incidence, **directions}},
+                                      source=source, base_dir=base_dir)
+        except ConfigError as exc:
+            raise _at_point(str(exc), point_keys, index, values) from None
+        base_cfg = base_cfg or cfg  # the sweep's seed and output: the base's, the same at every point
+        cfg = dataclasses.replace(cfg, seed=point_seed(cfg.seed, cfg.material), output=None)
+        defining = {k: v for k, v in cfg.to_dict().items() if k not in ("output", "source")}
+        digest.update(json.dumps(defining, sort_keys=True, default=str).encode())
+        points.append(Point(index=index, config=cfg))
+    for key in point_keys:
+        _check_distinct(f"sweep.{key}", table[key])
+    _check_distinct(theta_field, thetas)
+    if "phi_i_deg" in table:
+        _check_distinct("sweep.phi_i_deg", phis)
+    grid = list(table) + ([] if "theta_i_deg" in table else ["theta_i_deg"])
+    values_of = {**table, "theta_i_deg": thetas, "phi_i_deg": phis}
+    axes = tuple(_axis(k, values_of[k]) for k in grid)
+    axis_spec = [[a.name, list(a.values)] for a in axes]
+    digest.update(json.dumps({"axes": axis_spec, "seed": base_cfg.seed}, sort_keys=True, default=str).encode())
+    spec = {"base": {k: v for k, v in base.items() if k != "output"}, "sweep": table, "axes": axis_spec}
+    scalars = {} if "phi_i_deg" in table else {"phi_i_deg": float(phis[0])}
+    return Sweep(axes=axes, point_axes=point_keys, points=tuple(points), seed=base_cfg.seed,
+                 digest=digest.hexdigest(), spec=spec, source=source, output=base_cfg.output,
+                 n_phi=len(phis), scalars=scalars)
+
+
+def _at_point(message: str, point_keys, index, values) -> SweepError:
+    """A point's config error, naming the ``[sweep]`` entry it came from."""
+    name = message.split(" ", 1)[0]
+    for key, i in zip(point_keys, index):
+        if name == f"material.{key}":
+            return SweepError(f"sweep.{key}[{i}]" + message[len(name):])
+    if point_keys and any(index):
+        where = ", ".join(f"sweep.{k}[{i}] = {values[k]!r}" for k, i in zip(point_keys, index))
+        return SweepError(f"{message} (at the sweep point {where})")
+    return SweepError(message)
+
+
+def load(path: str | Path) -> Sweep:
+    """Read and validate a sweep file (TOML).
+
+    Raises
+    ------
+    SweepError
+        Unreadable file, TOML syntax error, or invalid content (one line).
+    """
+    path = Path(path)
+    try:
+        raw = tomllib.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise SweepError(f"sweep file {str(path)!r}: cannot read it ({exc.strerror or exc})") from None
+    except UnicodeDecodeError:
+        raise SweepError(f"sweep file {str(path)!r}: not UTF-8 text; a TOML file is expected") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise SweepError(f"sweep file {str(path)!r}: invalid TOML: {exc}") from None
+    return parse(raw, source=str(path), base_dir=path.parent)
+
+
+__all__ = ["MAX_GRID_POINTS", "Point", "Sweep", "SweepError", "axis_keys", "load", "parse", "point_seed"]

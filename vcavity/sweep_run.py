@@ -1,0 +1,178 @@
+"""Running a sweep point by point, writing the sweep file after each, and resuming it.
+
+Each point is one run (:class:`vcavity.simulate.Simulation`, the same pipeline as
+``vcavity run``: plan, execute work units locally or on Dask, merge in block order). When
+a point finishes, the whole sweep file is rewritten atomically
+(:func:`vcavity.io.sweep_table.write_sweep`), so a kill at any moment loses at most the
+running point; ``--resume`` reads the file back, checks that it holds the same sweep
+(``spec_digest``) and runs the points whose ``done`` flag is 0. Stored values of finished
+points are read back exactly, so a resumed sweep writes the same file as an
+uninterrupted one (apart from timings and the creation date).
+"""
+
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+
+from vcavity import preflight
+from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
+from vcavity.sweep import Point, Sweep, SweepError
+
+
+def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
+    """Store a finished point's :class:`~vcavity.simulate.RunResult` in ``data`` (as
+    :func:`vcavity.io.writer.write_result` stores a run: fractions of paths, or of
+    energy for the weighted estimator)."""
+    paths = np.asarray(result.paths, np.float64)
+    lost = {"absorbed": result.absorbed_paths / paths, "truncated": result.truncated_paths / paths,
+            "degenerate": result.degenerate_paths / paths}
+    if result.lost_fractions is not None:
+        lost = {name: result.lost_fractions[:, k] for k, name in enumerate(("absorbed", "truncated", "degenerate"))}
+    per_direction = {"brdf": result.brdf, "brdf_stderr": result.brdf_stderr, "counts": result.counts,
+                     "albedo": result.albedo, "paths": result.paths, "max_bounces_seen": result.max_bounces_seen,
+                     "unbinned_paths": result.unbinned_paths, "folded": result.folded,
+                     "relative_error": result.relative_error, **lost}
+    if result.target_reached is not None:
+        per_direction["target_reached"] = result.target_reached
+    for j in range(len(point.config.incidence)):
+        where = sweep.grid_index(point, j)
+        for name, values in per_direction.items():
+            data.data[name][where] = values[j]
+    data.data["seed"][point.index] = point.config.seed
+    data.data["compute_time_s"][point.index] = result.compute_time_s
+    data.data["done"][point.index] = 1
+
+
+def resume_data(sweep: Sweep, path, shown: str) -> SweepData:
+    """The state of ``sweep`` stored at ``path`` (for ``--resume``).
+
+    Raises
+    ------
+    SweepError
+        The file is not a sweep, or holds another sweep (spec, base config or seed differ).
+    """
+    try:
+        stored = open_sweep(path)
+    except SweepFormatError as exc:
+        raise SweepError(f"--resume: --output = {shown!r} cannot be resumed: {exc}") from None
+    if stored.attrs.get("spec_digest") != sweep.digest:
+        raise SweepError(f"--resume: --output = {shown!r} holds another sweep (its axes, base config or seed "
+                         "differ from this sweep file); give another --output, or --overwrite to start again")
+    data = sweep.new_data()
+    for name, array in data.data.items():
+        array[...] = stored.data[name]
+    return data
+
+
+def sweep_bytes(sweep: Sweep) -> int:
+    """Size bound of the sweep file and of its arrays in memory: three 8-byte
+    (grid, order, cell) arrays (``brdf``, ``brdf_stderr``, ``counts``) plus geometry."""
+    first = sweep.points[0].config
+    n_cells = first.sensor_resolution ** 2
+    grid = len(sweep.points) * sweep.n_directions
+    return 8 * (3 * grid * len(first.orders) * n_cells + 8 * n_cells) + (1 << 20)
+
+
+def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, overwrite: bool = False,
+                resume: bool = False, threads: int | None = None):
+    """Every check of a sweep that can fail, before anything is traced.
+
+    Returns ``(output, data, note)``: the :class:`~vcavity.preflight.Output`, the sweep
+    state to start from (a resumed file's, or empty) and a note for the user (or None).
+
+    Raises
+    ------
+    SweepError, vcavity.preflight.PreflightError
+        One line naming the flag or field.
+    """
+    import numba
+
+    if resume and overwrite:
+        raise SweepError("--resume with --overwrite: give one (--resume continues the sweep in --output, "
+                         "--overwrite starts it again)")
+    out = preflight.resolve_output(option, sweep.output, sweep_file)
+    preflight.check_output(out, sweep_file, True)  # links, folders, FIFOs, the sweep file itself
+    exists = out.path.exists()
+    if exists and not (resume or overwrite):
+        raise out.fail("exists; pass --resume to continue its sweep or --overwrite to start it again")
+    cores = numba.config.NUMBA_NUM_THREADS
+    if threads is not None and not 1 <= threads <= cores:
+        raise preflight.PreflightError(f"--threads = {threads}: must be between 1 and {cores} (cores here)")
+    first = sweep.points[0].config
+    n_cells = first.sensor_resolution ** 2
+    tallies = 3 if first.estimator == "paper" else 1
+    needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(
+        sweep.n_directions, len(first.orders), first.max_order, n_cells, threads or cores, tallies)
+    available = preflight.available_memory()
+    if available is not None and needed > available:
+        raise preflight.PreflightError(
+            f"simulation.sensor_resolution = {first.sensor_resolution} with max_order = {first.max_order}: "
+            f"the sweep needs about {needed / 1024**3:,.2f} GB of memory ({len(sweep.points)} point(s) x "
+            f"{sweep.n_directions} direction(s) x {len(first.orders)} orders x {n_cells:,} cells), "
+            f"{available / 1024**3:,.2f} GB available; accepted: a sweep that fits (fewer points, lower "
+            "sensor_resolution or max_order)")
+    note = None
+    data = resume_data(sweep, out.path, out.shown) if resume and exists else sweep.new_data()
+    if resume and not exists:
+        note = f"{out.shown}: nothing to resume yet, starting the sweep"
+    removed = preflight.probe_output(out)
+    preflight.check_disk_space(out, sweep_bytes(sweep))
+    if removed:
+        extra = f"removed {len(removed)} stale temporary file(s) of interrupted writes"
+        note = extra if note is None else f"{note}; {extra}"
+    return out, data, note
+
+
+def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, chunk_blocks: int | None = None,
+        executor=None, on_progress: Callable[..., None] | None = None,
+        on_point: Callable[[Point, SweepData], None] | None = None) -> SweepData:
+    """Run every point of ``sweep`` not yet done in ``data``, writing ``output`` after each.
+
+    Parameters
+    ----------
+    sweep : Sweep
+    output : path
+        The sweep file, rewritten atomically after each finished point.
+    data : SweepData
+        The state to start from (:meth:`Sweep.new_data` or :func:`resume_data`); updated
+        in place, so after an interruption it holds every finished point.
+    threads, chunk_blocks : int, optional
+        As for :class:`~vcavity.simulate.Simulation`; neither changes the result.
+    executor : callable, optional
+        Executor of each point's work units (e.g. :class:`vcavity.distributed.DaskExecutor`).
+    on_progress : callable, optional
+        ``on_progress(paths_now, relative_error)`` after each chunk, as in a run.
+    on_point : callable, optional
+        ``on_point(point, data)`` after each point is written (an exception raised there
+        stops the sweep with that point stored).
+
+    Raises
+    ------
+    vcavity.analytic.single_bounce.ModelNotApplicable
+        Estimator exact-f1 and a point's model cannot reach the accuracy (points before it
+        are stored).
+    OSError
+        Writing the file failed (the previous file is intact).
+    """
+    from vcavity.simulate import Simulation
+
+    for point in sweep.points:
+        if data.data["done"][point.index]:
+            continue
+        simulation = Simulation(point.config, threads=threads, chunk_blocks=chunk_blocks)
+        result = simulation.run(on_progress=on_progress, executor=executor)
+        record(sweep, data, point, result)
+        write_sweep(output, data)
+        if on_point is not None:
+            on_point(point, data)
+    return data
+
+
+def paths_done(sweep: Sweep, data: SweepData) -> int:
+    """Paths of the points already done (where a progress bar starts)."""
+    return sum(sweep.point_paths(p) for p in sweep.points if data.data["done"][p.index])
+
+
+__all__ = ["paths_done", "plan_output", "record", "resume_data", "run", "sweep_bytes"]
