@@ -66,6 +66,7 @@ def test_edge_of_each_roughness_parameter(tmp_path, capsys, material, message):
     assert message in _run_bad(tmp_path, capsys, material=material)
 
 
+@pytest.mark.slow  # ~20 s: runs in CI's slow suite (keeps the default suite under 10 min)
 def test_values_just_inside_the_edge_run(tmp_path, capsys):
     # kd = 1 and 0, eta = 1, theta_i one ulp below 90 deg, tiny alpha: valid, and they run
     for material in ({"kd": "1.0", "eta": "1.0", "alpha": "1e-12"}, {"kd": "0.0", "eta": "1.0000000000002"}):

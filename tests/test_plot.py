@@ -128,6 +128,7 @@ def test_map_mesh_is_the_sensor_cells_on_the_equal_area_disk():
                                atol=1e-12)  # radius^2 = 1 - cos(theta): equal-area
 
 
+@pytest.mark.slow  # ~20 s: runs in CI's slow suite (keeps the default suite under 10 min)
 def test_specular_peak_sits_at_the_mirror_direction(tables, tmp_path):
     """Beckmann alpha = 0.1, eta = 1.5: the f1 slice peaks in the stretch holding
     theta_o = theta_i or its neighbour (one cell), not on the light side; there the V-cavity
@@ -202,6 +203,7 @@ def test_plot_help_answers_questions(capsys):
         assert needle in text, needle
 
 
+@pytest.mark.slow  # ~20 s: runs in CI's slow suite (keeps the default suite under 10 min)
 def test_fig7_script(tables, tmp_path, capsys):
     spec = importlib.util.spec_from_file_location("fig7", ROOT / "scripts" / "fig7.py")
     fig7 = importlib.util.module_from_spec(spec)

@@ -275,6 +275,7 @@ def test_run_compiles_and_writes_a_table(sandbox, case):
         assert result.stderr.count(NOTE) == 1, result.stderr
 
 
+@pytest.mark.slow  # ~20 s: runs in CI's slow suite (keeps the default suite under 10 min)
 def test_compare_on_the_table_run_produced(sandbox):
     output, run = _vcavity_run(sandbox, "writable tmp")
     assert run.returncode == 0, run.stderr

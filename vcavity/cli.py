@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import signal
 import sys
 
 # Argument types, the one-line error format and the run help live in cli_args.py; the
@@ -203,6 +204,9 @@ def _cmd_run(args) -> int:
             return _error(str(exc))
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
+    from vcavity.interrupts import raise_if_pending
+
+    raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
     print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
           file=sys.stderr)
     from vcavity.analytic.single_bounce import ModelNotApplicable
@@ -395,14 +399,26 @@ def main(argv: list[str] | None = None) -> int:
     Ctrl-C anywhere (compiling, tracing, writing, comparing) ends with one line on stderr
     and exit status 130, never a traceback; ``run`` leaves no table and an old one untouched.
     """
+    from vcavity import interrupts
     from vcavity.interrupts import is_interrupt
 
     args = argparse.Namespace()
+    interrupts.reset()
+    interrupts.install_main_handler()
+    previous_hook = sys.unraisablehook
     try:
-        return _dispatch(args, argv)
+        status = _dispatch(args, argv)
+        if status != EXIT_INTERRUPTED:
+            interrupts.raise_if_pending()
+        return status
     except BaseException as exc:
         if not is_interrupt(exc):
             raise
+        # An interrupt inside Numba's compiler leaves half-built llvmlite objects whose
+        # destructors complain at exit ("Exception ignored in ... ObjectRef.__del__"):
+        # the process is ending on purpose, so such shutdown noise is not reported.
+        sys.unraisablehook = lambda unraisable: None
+        previous_hook = sys.unraisablehook
         if getattr(args, "table_written", None) is not None:
             print(f"vcavity: interrupted; the table was written: {args.table_written}", file=sys.stderr)
         elif getattr(args, "command", None) == "run":
@@ -410,6 +426,10 @@ def main(argv: list[str] | None = None) -> int:
         else:
             print("vcavity: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
+    finally:
+        sys.unraisablehook = previous_hook
+        if signal.getsignal(signal.SIGINT) is interrupts._main_handler:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _dispatch(args: argparse.Namespace, argv: list[str] | None) -> int:

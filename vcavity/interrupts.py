@@ -12,6 +12,48 @@ interrupt always ends the same way: no table written, the old one untouched.
 from __future__ import annotations
 
 import signal
+import sys
+
+
+_pending = False  # SIGINT seen by the main handler (possibly swallowed by a ctypes callback)
+
+
+def _main_handler(signum, frame):
+    global _pending
+    _pending = True
+    raise KeyboardInterrupt
+
+
+def _unraisable(unraisable, _default=sys.unraisablehook):
+    # A KeyboardInterrupt raised inside a ctypes callback of llvmlite (Numba compiling) is
+    # "ignored" there and printed with a traceback: it is recorded in _pending instead and
+    # acted on by raise_if_pending; after an interrupt, destructor noise is dropped too.
+    if isinstance(unraisable.exc_value, KeyboardInterrupt) or _pending:
+        return
+    _default(unraisable)
+
+
+def install_main_handler() -> None:
+    """SIGINT raises KeyboardInterrupt as usual and is remembered, even where compiled
+    code swallows the exception (see :func:`raise_if_pending`); main thread only."""
+    try:
+        if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+            signal.signal(signal.SIGINT, _main_handler)
+            sys.unraisablehook = _unraisable
+    except ValueError:
+        pass
+
+
+def raise_if_pending() -> None:
+    """Raise ``KeyboardInterrupt`` if a SIGINT arrived that something swallowed."""
+    if _pending:
+        raise KeyboardInterrupt
+
+
+def reset() -> None:
+    """Forget a remembered SIGINT (for in-process callers such as tests)."""
+    global _pending
+    _pending = False
 
 
 class DeferredInterrupt:
@@ -29,6 +71,7 @@ class DeferredInterrupt:
         self.requested = True
 
     def __enter__(self) -> "DeferredInterrupt":
+        self.requested = _pending  # a SIGINT swallowed earlier (e.g. while compiling) counts
         try:
             previous = signal.getsignal(signal.SIGINT)
             if previous is not signal.SIG_IGN:

@@ -53,6 +53,8 @@ class Number:
         ``"1"`` for dimensionless, else e.g. ``"rad"``.
     example : float
         A typical value, shown in ``--help``.
+    reason : str
+        Why a bound is there (appended to the out-of-range message), or empty.
     """
 
     key: str
@@ -64,6 +66,7 @@ class Number:
     default: float | None = None
     units: str = "1"
     example: float = 1.0
+    reason: str = ""  # why the range is bounded, appended to the out-of-range message
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -90,8 +93,11 @@ class Number:
         x = _number(field_name, value, self.accepted())
         too_low = self.lo is not None and (x < self.lo or (self.lo_open and x == self.lo))
         too_high = self.hi is not None and (x > self.hi or (self.hi_open and x == self.hi))
+        if too_low and self.reason:  # the reason explains the upper bound: name the lower one
+            raise ParameterError(f"{field_name} = {value!r}: must be {'>' if self.lo_open else '>='} {self.lo:g}")
         if too_low or too_high:
-            raise ParameterError(f"{field_name} = {value!r}: must be {self.accepted()}")
+            why = f" ({self.reason})" if self.reason else ""
+            raise ParameterError(f"{field_name} = {value!r}: must be {self.accepted()}{why}")
         return x
 
     def parse(self, raw: Mapping[str, Any], table: str, owner: str) -> dict[str, float]:

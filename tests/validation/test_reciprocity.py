@@ -98,6 +98,7 @@ def _check(statistics):
         assert chi2_sf(chi2, dof) >= level, (order, chi2, dof)
 
 
+@pytest.mark.slow  # ~20 s: runs in CI's slow suite (keeps the default suite under 10 min)
 def test_reciprocity_every_order_fig7():
     # IL paper fig. 7 material; 20 random cell pairs, 3 x 3 incident nodes per cell
     material = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}

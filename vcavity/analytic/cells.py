@@ -7,10 +7,12 @@ integral over a cell is a Gauss-Legendre rule in the sensor's square coordinates
 the concentric map's kinks cross), never a value at the cell centre.
 
 Sub-points per cell: the smooth body term needs few (``DEFAULT_BODY_SUB = 4``, and 8 on
-the diagonal and horizon cells: measured relative error of a cell integral about 1e-6 against 16 x 16 and against brute force,
-docs/validation.md); the
-specular lobe needs more when it is narrow compared with a cell:
-:func:`specular_subpoints` picks ``n_sub`` from the ratio of cell size to roughness.
+the diagonal and horizon cells: measured relative error of a cell integral about 1e-6
+against 16 x 16 and against brute force, docs/validation.md). The specular term gets
+``MIN_SPECULAR_SUB = 16`` points, and where its lobe is finer than they resolve (a lobe
+narrower than a cell, an anisotropic ridge, the wedge of any lobe at grazing incidence)
+it is integrated over the half vector instead (:mod:`vcavity.analytic.specular_peak`).
+:func:`specular_subpoints` is the older rule of thumb (points for a lobe of width w).
 """
 
 from __future__ import annotations
@@ -87,7 +89,8 @@ def _integrate(projected, incident, sensor, n_sub, cells, chunk_points=262144, k
         diagonal = (ix == iy) | (ix + iy == last)
         split = ~diagonal & (np.abs(r_centre - radius) < 1.0 / n)
     for group, size in ((~hard & ~split, n_sub), (hard & ~corner & ~split, max(n_sub, hard_sub)),
-                        (corner, max(n_sub, corner_sub)), (split, max(n_sub, hard_sub) if kink_z is not None else n_sub)):
+                        (corner, max(n_sub, corner_sub)),
+                        (split, max(n_sub, hard_sub) if kink_z is not None else n_sub)):
         positions = np.flatnonzero(group)
         per_chunk = max(1, chunk_points // (2 * size * size))
         for start in range(0, positions.size, per_chunk):

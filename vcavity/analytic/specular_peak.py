@@ -1,5 +1,5 @@
 """The specular term over the sensor cells near the mirror direction, for lobes narrower
-than a cell (physics.md sec. 6-7, "Narrow specular lobes").
+than a cell (physics.md sec. 6-7; docs/validation.md, "Narrow specular lobes").
 
 A cell integral of the specular term, ``∫_c f_s cos θ_o dω_o``, is a Gauss-Legendre rule
 in the cell's square coordinates (:mod:`vcavity.analytic.cells`) as long as the lobe is
@@ -300,13 +300,19 @@ def _profile(model, n=2048):
     if t.size < 8:  # the whole lobe below float resolution: any width is resolved by rays
         profile = (np.array([0.0, 1.0]), np.array([1.0, 1.0]))
     else:
-        log_f = np.log(np.gradient(u1, t)) - np.log(t)
-        g1 = np.gradient(log_f, t)
-        g2 = np.gradient(g1, t)
-        with np.errstate(divide="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            log_f = np.log(np.gradient(u1, t)) - np.log(t)
+            g1 = np.gradient(log_f, t)
+            g2 = np.gradient(g1, t)
             width = 1.0 / np.sqrt(np.maximum.reduce([np.abs(g2), np.abs(g1) / t, g1 * g1, np.full(t.size, 1e-300)]))
-        # near T = 0 the finite differences are noisy: the width there is the width at small T
-        profile = (np.concatenate([[0.0], t]), np.concatenate([[width[min(4, width.size - 1)]], width]))
+        good = np.isfinite(width)
+        if not np.any(good):
+            profile = (np.array([0.0, 1.0]), np.array([1.0, 1.0]))
+        else:
+            # repeated or unresolved nodes: the narrowest width met elsewhere (conservative)
+            width = np.where(good, width, np.min(width[good]))
+            # near T = 0 the finite differences are noisy: the width there is the width at small T
+            profile = (np.concatenate([[0.0], t]), np.concatenate([[width[min(4, width.size - 1)]], width]))
     model._peak_profile = profile
     return profile
 
