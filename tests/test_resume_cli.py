@@ -63,7 +63,7 @@ def setup(tmp_path):
 
 
 def test_sigint_saves_a_checkpoint_and_resume_completes(tmp_path, setup):
-    reference = setup(12_000_000)
+    reference = setup(30_000_000)
     out = tmp_path / "out.h5"
     process = _start(tmp_path, out)
     deadline = time.time() + 120
@@ -80,7 +80,7 @@ def test_sigint_saves_a_checkpoint_and_resume_completes(tmp_path, setup):
     assert not out.exists() and checkpoint.checkpoint_path(out).exists()
     info = subprocess.run([sys.executable, "-m", "vcavity.cli", "info", str(checkpoint.checkpoint_path(out))],
                           capture_output=True, text=True)
-    assert info.returncode == 0 and "paths done" in info.stdout and "of 24,000,000" in info.stdout
+    assert info.returncode == 0 and "paths done" in info.stdout and "of 60,000,000" in info.stdout
     # without --resume the checkpoint is not overwritten: one line, exit 2
     refused = _finish(_start(tmp_path, out))
     assert refused[0] == 2 and "--resume" in refused[2]
