@@ -412,7 +412,9 @@ def main(argv: list[str] | None = None) -> int:
             interrupts.raise_if_pending()
         return status
     except BaseException as exc:
-        if not is_interrupt(exc):
+        # after a SIGINT that compiled code swallowed, what fails next (e.g. Numba's
+        # "no compiled object yet") is a consequence of the interrupt, not a bug to show
+        if not (is_interrupt(exc) or interrupts.pending()):
             raise
         # An interrupt inside Numba's compiler leaves half-built llvmlite objects whose
         # destructors complain at exit ("Exception ignored in ... ObjectRef.__del__"):

@@ -50,6 +50,11 @@ def raise_if_pending() -> None:
         raise KeyboardInterrupt
 
 
+def pending() -> bool:
+    """Whether a SIGINT arrived under the main handler."""
+    return _pending
+
+
 def reset() -> None:
     """Forget a remembered SIGINT (for in-process callers such as tests)."""
     global _pending
