@@ -346,6 +346,11 @@ class Simulation:
             return n_blocks
         return min(n_blocks, (done // TARGET_CHECK_BLOCKS + 1) * TARGET_CHECK_BLOCKS)
 
+    def _direction_error(self, j: int, tally, paths: int) -> float:
+        """The stop rule's measure for direction ``j``: relative error of f_inf (physics.md sec. 11)."""
+        _, estimate = self._estimate(j, tally, paths)
+        return relative_error(estimate, self.config.orders, self.sensor.cell_projected_solid_angle)
+
     def plan(self, j: int, state: RunState):
         """The work units of direction ``j`` from where ``state`` stands to its next check,
         in block order: ``chunk_blocks`` blocks each (generated lazily: budgets reach 2^62)."""
@@ -377,14 +382,14 @@ class Simulation:
             state.finished[j] = True
         if c.target_error is not None:
             paths = min(done * BLOCK_SIZE, budget)
-            if _relative_error(*self._estimate(j, state.tally[j], paths), c.orders, self.sensor) <= c.target_error:
+            if self._direction_error(j, state.tally[j], paths) <= c.target_error:
                 state.finished[j] = state.reached[j] = True
 
     def _current_error(self, j: int, state: RunState) -> float:
         if self.config.target_error is None:
             return math.nan
         paths = int(self.paths_done(state)[j])
-        return _relative_error(*self._estimate(j, state.tally[j], paths), self.config.orders, self.sensor)
+        return self._direction_error(j, state.tally[j], paths)
 
     def result(self, state: RunState) -> RunResult:
         """The tabulated outcome of a finished run state."""
@@ -401,7 +406,7 @@ class Simulation:
             counts[j], estimate = self._estimate(j, state.tally[j], int(paths[j]))
             brdf[j], stderr[j], albedo[j] = estimate.brdf, estimate.brdf_stderr, estimate.albedo
             if c.track_all_orders:
-                error[j] = _relative_error(counts[j], estimate, c.orders, self.sensor)
+                error[j] = relative_error(estimate, c.orders, self.sensor.cell_projected_solid_angle)
         return RunResult(
             theta_i=np.array([d.theta_i for d in c.incidence]),
             phi_i=np.array([d.phi_i for d in c.incidence]),
@@ -448,10 +453,6 @@ def _table_counts(slots, track_all_orders: bool):
     if track_all_orders:
         return np.concatenate([slots.sum(axis=0, keepdims=True), slots[1:]], axis=0)
     return slots[1:].copy()
-
-
-def _relative_error(counts, estimate, orders, sensor) -> float:
-    return relative_error(estimate, orders, sensor.cell_projected_solid_angle)
 
 
 def _paths_in(first_block: int, n_blocks: int, budget: int) -> int:
