@@ -161,7 +161,7 @@ def test_albedo_data_share_from_counts(tables, tmp_path):
 
 BAD = [
     (["--kind", "bogus"], "--kind = 'bogus': accepted slice, map, albedo, sweep"),
-    (["--kind", "sweep"], "sweep tables are not supported yet"),
+    (["--kind", "sweep"], "--kind = 'sweep': fig7b.h5 is a table of one run; --kind sweep draws a sweep file"),
     (["-o", "{tmp}/missing/x.png"], "does not exist"),
     (["-o", "{tmp}/x.bmp"], "unsupported file type '.bmp'"),
     (["--theta-i", "45"], "--theta-i = 45: not an incident direction"),
@@ -197,7 +197,7 @@ def test_plot_help_answers_questions(capsys):
         main(["plot", "--help"])
     assert exit_info.value.code == 0
     text = capsys.readouterr().out
-    for needle in ("slice", "map", "albedo", "sweep", "not supported yet", "1/sr", "--theta-i", "--order",
+    for needle in ("slice", "map", "albedo", "sweep", "a sweep file", "1/sr", "--theta-i", "--order",
                    "f_inf", "--scale", "log", "equal-area", "+-2 standard errors", "phi_o = phi_i + 180",
                    "scripts/fig7.py"):
         assert needle in text, needle

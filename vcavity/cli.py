@@ -1,4 +1,4 @@
-"""Command-line interface: ``vcavity run``, ``vcavity info``, ``vcavity compare`` and ``vcavity plot``.
+"""Command-line interface: ``vcavity run``, ``info``, ``compare``, ``plot``, ``sweep`` and ``export``.
 
 Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
 (config, arguments, output path, unreadable table, model not applicable, not enough memory
@@ -98,10 +98,15 @@ def build_parser() -> argparse.ArgumentParser:
                          "at most 1024: the cost grows as N^2 per cell)")
     compare.add_argument("--lambda-fit", action="store_true",
                          help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
-    _add_plot_parser(sub)
+    from vcavity.cli_plot import add_plot_parser  # `vcavity plot` lives in cli_plot.py
+
+    add_plot_parser(sub)
     from vcavity.cli_sweep import add_sweep_parser  # `vcavity sweep` lives in cli_sweep.py
 
     add_sweep_parser(sub)
+    from vcavity.cli_export import add_export_parser  # `vcavity export` lives in cli_export.py
+
+    add_export_parser(sub)
     return parser
 
 
@@ -328,71 +333,6 @@ def _cmd_compare(args) -> int:
     return EXIT_OK if report.passed else 1
 
 
-_PLOT_EPILOG = """\
-kinds:
-  slice   in-plane slices (plane of incidence; theta_o signed, > 0 on the specular
-          side phi_o = phi_i + 180, < 0 toward the light phi_o = phi_i) of f1, f2 and
-          f_inf on a log scale: one step per sensor cell the plane crosses (a table
-          holds cell averages), bands of +-2 standard errors, and the V-cavity and
-          Smith single-bounce models of f1 averaged over the same cells
-  map     equal-area hemispherical maps (disk, rings at theta_o = 30, 60, 90 deg) of
-          every order side by side, one row per incident direction; colour bars in 1/sr
-  albedo  albedo per order against theta_i, and the inter-reflection share
-          (f_inf - f1) / f_inf (needs f_inf: track_all_orders = true)
-  sweep   albedo against roughness per eta and kd: not supported yet (no sweep tables)
-
-examples:
-  vcavity plot t.h5                                  # slices of every direction -> t_slice.png
-  vcavity plot t.h5 --kind map --theta-i 60 --scale log -o map60.png
-  vcavity plot t.h5 --kind slice --order 1 3 inf --theta-i 30 60
-  vcavity plot t.h5 --kind albedo -o albedo.pdf
-scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig7_eta1.5.toml.
-"""
-
-
-def _add_plot_parser(sub) -> None:
-    plot = sub.add_parser(
-        "plot", help="draw a table: in-plane slices, hemispherical maps or albedos (PNG, PDF, SVG)",
-        description="Draw a table with matplotlib: BRDF values in 1/sr, angles in degrees. Bad input "
-        "(unknown kind, an order or theta_i the table lacks, -o in a missing folder) is a one-line "
-        "error with exit status 2, reported before anything is computed.",
-        epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
-    plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run")
-    plot.add_argument("--kind", default="slice", metavar="KIND",
-                      help="slice (default), map, albedo or sweep (see below)")
-    plot.add_argument("-o", "--output", metavar="FILE",
-                      help="image to write, .png, .pdf or .svg (default: <table>_<kind>.png beside the table)")
-    plot.add_argument("--theta-i", nargs="+", metavar="DEG",
-                      help="incident polar angles to draw, degrees as in the run config (default: all)")
-    plot.add_argument("--order", nargs="+", metavar="K",
-                      help="bounce orders: 1 2 ... (or f1 f2 ...), 0 / inf / f_inf for all orders "
-                      "(default: slice f1 f2 f_inf, map and albedo every order of the table)")
-    plot.add_argument("--scale", metavar="SCALE",
-                      help="log or linear value scale of slices and maps (default: slice log, map linear)")
-    plot.add_argument("--no-models", action="store_true",
-                      help="slice: leave out the analytic models (they compile Numba code on first use)")
-
-
-def _cmd_plot(args) -> int:
-    from vcavity.io.table import TableFormatError, open_table
-    from vcavity.plots import PlotError, check_request, render
-
-    try:
-        table = open_table(args.table)
-    except FileNotFoundError:
-        return _error(f"table {args.table!r}: no such file")
-    except (TableFormatError, OSError) as exc:
-        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
-    try:
-        request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
-                                orders=args.order, scale=args.scale, models=not args.no_models)
-    except PlotError as exc:
-        return _error(str(exc))
-    render(table, request)
-    print(f"wrote {request.output}")
-    return EXIT_OK
-
-
 def main(argv: list[str] | None = None) -> int:
     """Entry point of the ``vcavity`` console script.
 
@@ -444,11 +384,17 @@ def _dispatch(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.command == "compare":
         return _cmd_compare(args)
     if args.command == "plot":
-        return _cmd_plot(args)
+        from vcavity.cli_plot import cmd_plot
+
+        return cmd_plot(args)
     if args.command == "sweep":
         from vcavity.cli_sweep import cmd_sweep
 
         return cmd_sweep(args)
+    if args.command == "export":
+        from vcavity.cli_export import cmd_export
+
+        return cmd_export(args)
     parser.error(f"unknown command {args.command!r}")
     return EXIT_BAD_INPUT
 

@@ -108,7 +108,7 @@ def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
             raise out.fail(f"is the run config {config_file!r} itself; give the table another name "
                            "(-o OUT.h5)")
         if not overwrite:
-            raise out.fail("exists; pass --overwrite to replace it (atomically, when the run completes)")
+            raise out.fail("exists; pass --overwrite to replace it (atomically, once the new file is complete)")
     _check_folder(out)
 
 

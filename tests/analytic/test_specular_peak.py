@@ -17,7 +17,7 @@ from tests.reference import materials as ref_mat
 from tests.reference import single_bounce as ref_sb
 from vcavity.analytic import SingleBounceModel
 from vcavity.analytic.cells import specular_integrals
-from vcavity.analytic.specular_peak import mirror_cell, peak_cells
+from vcavity.analytic.peak_cells import mirror_cell, peak_cells
 from vcavity.config import validate
 from vcavity.sensor import EqualAreaSensor
 from vcavity.simulate import incident_vector

@@ -22,4 +22,13 @@ groove_paths
     and ``f_k`` per cell for mirror and ``kd = 0`` dielectric facets.
 lambertian_orders
     Order-1 and order-2 albedos of Lambertian facets from 2-D view factors.
+numpy_walk
+    The plain-NumPy vectorised walk (the throughput baseline of scripts/bench_throughput.py).
+merl_reader
+    A MERL BRDF reader written from the format's description (header, bin index, colour
+    scales, half/difference angles), for the MERL export's round trip.
+tensor_file_reader
+    A reader of the RGL ``tensor_file`` container, for the RGL export's tests.
+synthetic_sweeps
+    Sweep files with known albedos (no simulation), for the albedo LUT export.
 """

@@ -26,9 +26,9 @@ from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.specular_peak import (
     DEFAULT_AZIMUTH_NODES,
     DEFAULT_RADIAL_NODES,
-    peak_cells,
     peak_integrals,
 )
+from vcavity.analytic.peak_cells import peak_cells
 from vcavity.sensor import EqualAreaSensor
 
 DEFAULT_BODY_SUB = 4
@@ -147,7 +147,7 @@ def specular_integrals(model: SingleBounceModel, incident, sensor: EqualAreaSens
     """``∫_c f_s cos θ_o dω_o`` per cell (physics.md sec. 6-7).
 
     The sub-cell rule (``n_sub`` points, default ``MIN_SPECULAR_SUB``) everywhere
-    except in the peak cells (:func:`~vcavity.analytic.specular_peak.peak_cells`), where
+    except in the peak cells (:func:`~vcavity.analytic.peak_cells.peak_cells`), where
     the lobe is finer than that rule resolves (a lobe narrower than a cell, Beckmann
     alpha 1e-4 or Phong exponent 1e300; an anisotropic ridge; the wedge of any lobe at
     grazing incidence): those are integrated by rays in the half-vector domain
@@ -165,7 +165,7 @@ def specular_integrals(model: SingleBounceModel, incident, sensor: EqualAreaSens
     n_azimuth, n_radial : int
         Gauss-Legendre nodes per piece of the peak rays.
     peak : array_like of int, optional
-        The peak cells (sorted; default :func:`~vcavity.analytic.specular_peak.peak_cells`).
+        The peak cells (sorted; default :func:`~vcavity.analytic.peak_cells.peak_cells`).
 
     Returns
     -------

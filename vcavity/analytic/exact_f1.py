@@ -31,9 +31,9 @@ from vcavity.analytic.single_bounce import ModelNotApplicable, SingleBounceModel
 from vcavity.analytic.specular_peak import (
     DEFAULT_PEAK_TOLERANCE,
     DEFAULT_RADIAL_NODES,
-    peak_cells,
     peak_integrals,
 )
+from vcavity.analytic.peak_cells import peak_cells
 from vcavity.sensor import EqualAreaSensor
 
 #: Starting body-integral control: half the compare default (64), a quarter of its cost;

@@ -14,7 +14,10 @@ reading pixels:
   incident direction. Returns ``{(incidence index, order): (N, N) values}``.
 - ``"albedo"``: albedo per order against theta_i and the inter-reflection share
   ``(f_inf - f1)/f_inf``. Returns :class:`~vcavity.plots.data.AlbedoData`.
-- ``"sweep"``: refused: sweep tables do not exist yet.
+- ``"sweep"``: of a sweep file (``vcavity sweep``; the default kind for one): albedo of
+  f1 and f_inf against the roughness axis, one line per combination of the other material
+  axes, one panel per theta_i (:mod:`vcavity.plots.sweep`). Returns
+  :class:`~vcavity.plots.sweep.SweepPlotData`. The other kinds draw a table of one run.
 
 Only ``"slice"`` with models imports the analytic package (and Numba).
 """
@@ -94,15 +97,23 @@ def check_output(output) -> Path:
     return out
 
 
-def check_request(table, kind: str = "slice", output=None, theta_i_deg=None, orders=None,
+def _is_sweep(source) -> bool:
+    from vcavity.io.sweep_table import SweepData
+
+    return isinstance(source, SweepData)
+
+
+def check_request(table, kind: str | None = None, output=None, theta_i_deg=None, orders=None,
                   scale: str | None = None, models: bool = True) -> PlotRequest:
-    """Check a plot request against a table without computing anything.
+    """Check a plot request against a table (or a sweep) without computing anything.
 
     Parameters
     ----------
-    table : vcavity.io.table.Table
-    kind : str
-        One of :data:`KINDS`.
+    table : vcavity.io.table.Table or vcavity.io.sweep_table.SweepData
+        A sweep takes ``kind = "sweep"`` only (:func:`vcavity.plots.sweep.check_sweep_request`),
+        a table every other kind.
+    kind : str, optional
+        One of :data:`KINDS`; default ``"sweep"`` for a sweep, ``"slice"`` for a table.
     output : path, optional
         Default :func:`default_output`.
     theta_i_deg : sequence of float or str, optional
@@ -124,11 +135,22 @@ def check_request(table, kind: str = "slice", output=None, theta_i_deg=None, ord
     PlotError
         One line naming the option, the value and what is accepted.
     """
+    sweep = _is_sweep(table)
+    if kind is None:
+        kind = "sweep" if sweep else "slice"
     if kind not in KINDS:
         raise PlotError(f"--kind = {kind!r}: accepted {', '.join(KINDS)}")
+    if sweep:
+        if kind != "sweep":
+            raise PlotError(f"--kind = {kind!r}: {table.path.name if table.path else 'this'} is a sweep file "
+                            "(vcavity sweep), drawn with --kind sweep (albedo against roughness); slice, map "
+                            "and albedo draw a table of vcavity run")
+        from vcavity.plots.sweep import check_sweep_request
+
+        return check_sweep_request(table, output, theta_i_deg, orders, scale)
     if kind == "sweep":
-        raise PlotError("--kind = 'sweep': sweep tables are not supported yet "
-                        "(albedo against roughness needs the sweep tables of issue 10)")
+        raise PlotError(f"--kind = 'sweep': {table.path.name} is a table of one run; --kind sweep draws a sweep "
+                        "file (vcavity sweep); a table takes slice, map or albedo")
     if scale is not None and scale not in SCALES:
         raise PlotError(f"--scale = {scale!r}: accepted {', '.join(SCALES)}")
     if kind == "albedo" and scale == "log":
@@ -179,6 +201,10 @@ def check_request(table, kind: str = "slice", output=None, theta_i_deg=None, ord
 
 def render(table, request: PlotRequest):
     """Draw and save a checked request; returns the plotted data (module docstring)."""
+    if request.kind == "sweep":
+        from vcavity.plots.sweep import render_sweep
+
+        return render_sweep(table, request)
     from vcavity.plots import data as plot_data
     from vcavity.plots import figures
 
@@ -204,22 +230,23 @@ def render(table, request: PlotRequest):
     return result
 
 
-def plot_table(table, kind: str = "slice", output=None, **options):
+def plot_table(table, kind: str | None = None, output=None, **options):
     """Check, draw and save one plot of ``table``; returns the plotted data.
 
     ``options``: ``theta_i_deg``, ``orders``, ``scale``, ``models`` as in
-    :func:`check_request`. ``table`` may be a path or an open
-    :class:`~vcavity.io.table.Table`.
+    :func:`check_request`. ``table`` may be a path (of a table or of a sweep file), an
+    open :class:`~vcavity.io.table.Table` or a :class:`~vcavity.io.sweep_table.SweepData`.
 
     Raises
     ------
     PlotError
         Bad request (one line), before anything is computed.
     """
-    if not hasattr(table, "brdf"):
+    if isinstance(table, (str, os.PathLike)):
+        from vcavity.io.sweep_table import is_sweep_file, open_sweep
         from vcavity.io.table import open_table
 
-        table = open_table(table)
+        table = open_sweep(table) if Path(table).is_file() and is_sweep_file(table) else open_table(table)
     return render(table, check_request(table, kind, output, **options))
 
 

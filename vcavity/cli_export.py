@@ -1,0 +1,139 @@
+"""``vcavity export``: a table (or a sweep) in a format renderers read (wired into :mod:`vcavity.cli`).
+
+Exit status: 0 written; 2 bad input or a source the format cannot represent (one line, the
+output untouched, no file left behind); 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def _epilog() -> str:
+    from vcavity.export import FORMAT_MODULES, format_module
+
+    lines = ["formats:"]
+    for name in FORMAT_MODULES:
+        module = format_module(name)
+        lines.append(f"  {name:<13} {module.SUMMARY} (from a {module.SOURCE})")
+    lines += [
+        "",
+        "--order K picks the bounce order of every format: 0 (default) = f_inf, all orders;",
+        "K = light that left after exactly K bounces. The output is written atomically and an",
+        "existing file is replaced only with --overwrite. Formats and their conventions:",
+        "docs/exports.md.",
+    ]
+    return "\n".join(lines)
+
+
+def add_export_parser(sub) -> None:
+    """The ``export`` subcommand's arguments."""
+    export = sub.add_parser(
+        "export", help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
+        description="Convert a table of `vcavity run` (or, for albedo-lut, a sweep file of "
+        "`vcavity sweep`) into a file another program reads. Every check runs before anything "
+        "is written; a table the format cannot represent is refused in one line (exit 2).",
+        epilog_factory=_epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    export.add_argument("table", metavar="IN.h5", help="a table (vcavity run) or a sweep file (vcavity sweep)")
+    export.add_argument("output", metavar="FILE", help="the file to write")
+    export.add_argument("--format", required=True, metavar="FORMAT",
+                        help="rgl, rgl-spectral, merl, albedo-lut or csv (see below)")
+    export.add_argument("--order", default="0", metavar="K",
+                        help="bounce order: 0 / inf / f_inf (default, all orders), 1 / f1, 2 / f2, ...")
+    export.add_argument("--theta-i", metavar="DEG",
+                        help="csv: the incident polar angle of the slice, degrees as in the run config "
+                        "(default: the table's only one; required when it has several)")
+    export.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
+
+
+def cmd_export(args) -> int:
+    """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``."""
+    import os
+    from pathlib import Path
+
+    from vcavity import preflight
+    from vcavity.cli import EXIT_OK, _error
+    from vcavity.export import ExportRefused, ExportRequest, export, format_module
+    from vcavity.io.sweep_table import is_sweep_file
+    from vcavity.plots import PlotError, parse_order
+
+    try:
+        module = format_module(args.format)
+    except ExportRefused as exc:
+        return _error(str(exc))
+    try:
+        order = parse_order(args.order)
+    except PlotError:
+        return _error(f"--order = {args.order!r}: accepted are 0, inf or f_inf (all orders) and 1, 2, ... "
+                      "(or f1, f2, ...)")
+    if args.theta_i is not None and args.format != "csv":
+        return _error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
+                      f"(--format {args.format} exports every incident direction)")
+    source_path = Path(args.table)
+    if not source_path.exists():
+        return _error(f"table {args.table!r}: no such file")
+    if not source_path.is_file():
+        return _error(f"table {args.table!r}: not a regular file")
+    example = f"'out{module.SUFFIX}'"
+    if args.output == "" or args.output.endswith(("/", os.sep)) or Path(args.output).name in ("", ".", ".."):
+        return _error(f"FILE = {args.output!r}: must name a file, such as {example}")
+    out = preflight.Output(Path(args.output), "FILE", args.output)
+    try:
+        if out.path.is_file() and os.path.samefile(out.path, source_path):
+            raise out.fail(f"is the input {args.table!r} itself; give the export another name, such as {example}")
+        preflight.check_output(out, None, args.overwrite)
+        preflight.probe_output(out)
+    except preflight.PreflightError as exc:
+        return _error(str(exc))
+    try:
+        source = _open_source(source_path, args.table, module, is_sweep_file(source_path))
+    except ExportRefused as exc:
+        return _error(str(exc))
+    request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i)
+    try:
+        export(source, args.format, request, out.path)
+    except ExportRefused as exc:
+        return _error(str(exc))
+    except OSError as exc:
+        return _error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+    print(f"wrote {out.path} ({args.format}, {_order_name(order)})")
+    return EXIT_OK
+
+
+def _order_name(order: int) -> str:
+    return "f_inf" if order == 0 else f"f{order}"
+
+
+def _open_source(path, shown: str, module, is_sweep: bool):
+    """The table or sweep ``module`` exports; refuses the other kind in one line."""
+    from vcavity.export import ExportRefused
+
+    if module.SOURCE == "sweep":
+        if not is_sweep:
+            raise ExportRefused(f"table {shown!r}: --format {module.NAME} exports a sweep file "
+                                "(vcavity sweep), this is a table of one run")
+        from vcavity.io.sweep_table import open_sweep
+
+        try:
+            return open_sweep(path)
+        except (ValueError, OSError, KeyError) as exc:
+            raise ExportRefused(f"sweep {shown!r}: cannot read it ({_first_line(exc)})") from None
+    if is_sweep:
+        raise ExportRefused(f"table {shown!r}: is a sweep file; --format {module.NAME} exports a table "
+                            "of one run (vcavity run)")
+    from vcavity.io.table import TableFormatError, open_table
+
+    try:
+        return open_table(path)
+    except (TableFormatError, OSError) as exc:
+        raise ExportRefused(_first_line(exc) or f"table {shown!r}: cannot read it") from None
+
+
+def _first_line(exc) -> str:
+    text = str(exc)
+    return text.splitlines()[0] if text else type(exc).__name__
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(1)

@@ -1,0 +1,92 @@
+"""``vcavity plot``: draw a table or a sweep file (wired into :mod:`vcavity.cli`).
+
+Exit status: 0 written; 2 bad input (unknown kind, an order or theta_i the source lacks,
+an unusable output path), one line, reported before anything is computed; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+_PLOT_EPILOG = """\
+kinds:
+  slice   in-plane slices (plane of incidence; theta_o signed, > 0 on the specular
+          side phi_o = phi_i + 180, < 0 toward the light phi_o = phi_i) of f1, f2 and
+          f_inf on a log scale: one step per sensor cell the plane crosses (a table
+          holds cell averages), bands of +-2 standard errors, and the V-cavity and
+          Smith single-bounce models of f1 averaged over the same cells
+  map     equal-area hemispherical maps (disk, rings at theta_o = 30, 60, 90 deg) of
+          every order side by side, one row per incident direction; colour bars in 1/sr
+  albedo  albedo per order against theta_i, and the inter-reflection share
+          (f_inf - f1) / f_inf (needs f_inf: track_all_orders = true)
+  sweep   a sweep file (vcavity sweep; the default kind for one): albedo of f1 and
+          f_inf (--order for others) against the roughness axis (alpha, alpha_x,
+          alpha_y, sigma or exponent), one colour per combination of the other
+          material axes (eta, kd, ...), one panel per theta_i, error bars +-2
+          standard errors; slice, map and albedo draw a table of vcavity run
+
+examples:
+  vcavity plot t.h5                                  # slices of every direction -> t_slice.png
+  vcavity plot t.h5 --kind map --theta-i 60 --scale log -o map60.png
+  vcavity plot t.h5 --kind slice --order 1 3 inf --theta-i 30 60
+  vcavity plot t.h5 --kind albedo -o albedo.pdf
+  vcavity plot s.h5 --theta-i 45 --order 1 2 inf     # a sweep file -> s_sweep.png
+scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig7_eta1.5.toml.
+"""
+
+
+def add_plot_parser(sub) -> None:
+    """The ``plot`` subcommand's arguments."""
+    plot = sub.add_parser(
+        "plot", help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
+        "(albedo against roughness) (PNG, PDF, SVG)",
+        description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
+        "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
+        "folder) is a one-line error with exit status 2, reported before anything is computed.",
+        epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run, or a sweep file "
+                      "written by vcavity sweep")
+    plot.add_argument("--kind", metavar="KIND",
+                      help="slice (default for a table), map, albedo; sweep (default for a sweep file) "
+                      "(see below)")
+    plot.add_argument("-o", "--output", metavar="FILE",
+                      help="image to write, .png, .pdf or .svg (default: <table>_<kind>.png beside the table)")
+    plot.add_argument("--theta-i", nargs="+", metavar="DEG",
+                      help="incident polar angles to draw, degrees as in the run config (default: all)")
+    plot.add_argument("--order", nargs="+", metavar="K",
+                      help="bounce orders: 1 2 ... (or f1 f2 ...), 0 / inf / f_inf for all orders "
+                      "(default: slice f1 f2 f_inf, map and albedo every order of the table, sweep f1 f_inf)")
+    plot.add_argument("--scale", metavar="SCALE",
+                      help="log or linear value scale of slices and maps (default: slice log, map linear)")
+    plot.add_argument("--no-models", action="store_true",
+                      help="slice: leave out the analytic models (they compile Numba code on first use)")
+
+
+def cmd_plot(args) -> int:
+    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file."""
+    from vcavity.cli import EXIT_OK, _error
+
+    from pathlib import Path
+
+    from vcavity.io.sweep_table import SweepFormatError, is_sweep_file, open_sweep
+    from vcavity.io.table import TableFormatError, open_table
+    from vcavity.plots import PlotError, check_request, render
+
+    try:
+        # a sweep file (vcavity sweep) or a table; only regular files (h5py blocks on a FIFO)
+        if Path(args.table).is_file() and is_sweep_file(args.table):
+            table = open_sweep(args.table)
+        else:
+            table = open_table(args.table)
+    except FileNotFoundError:
+        return _error(f"table {args.table!r}: no such file")
+    except (TableFormatError, SweepFormatError, OSError) as exc:
+        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    try:
+        request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
+                                orders=args.order, scale=args.scale, models=not args.no_models)
+    except PlotError as exc:
+        return _error(str(exc))
+    render(table, request)
+    print(f"wrote {request.output}")
+    return EXIT_OK

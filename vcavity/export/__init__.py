@@ -1,0 +1,121 @@
+"""Exports of tables and sweeps to the formats renderers read (``vcavity export``).
+
+One module per format, registered by one line in :data:`FORMAT_MODULES`. Every format
+module offers the same interface:
+
+``NAME`` : str
+    The ``--format`` value.
+``SOURCE`` : ``"table"`` or ``"sweep"``
+    What it exports: a table of ``vcavity run`` or a sweep file of ``vcavity sweep``.
+``SUFFIX`` : str
+    The usual file suffix (used for the default output name).
+``SUMMARY`` : str
+    One line for ``vcavity export --help``.
+``prepare(source, request) -> object``
+    Every check and all computation: refuses a source the format cannot represent by
+    raising :class:`ExportRefused` (one line: what is refused and why), before anything is
+    written. Returns what ``write`` needs.
+``write(prepared, path) -> None``
+    Writes the file at ``path`` (a fresh temporary file that the caller renames onto the
+    destination atomically; see :func:`export`).
+
+Plain NumPy and h5py: no export compiles Numba code.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import importlib
+from dataclasses import dataclass
+from pathlib import Path
+
+#: --format value -> module implementing it (the one place a format is registered)
+FORMAT_MODULES = {
+    "rgl": "vcavity.export.rgl",
+    "rgl-spectral": "vcavity.export.rgl_spectral",
+    "merl": "vcavity.export.merl",
+    "albedo-lut": "vcavity.export.albedo_lut",
+    "csv": "vcavity.export.csv_slice",
+}
+
+
+class ExportRefused(ValueError):
+    """The source cannot be written in the requested format; the message is one line."""
+
+
+@dataclass(frozen=True)
+class ExportRequest:
+    """What the user asked for, checked for syntax only (formats check the meaning).
+
+    Attributes
+    ----------
+    order : int
+        Bounce order: 0 = f_inf (all orders), k = exactly k bounces.
+    order_text : str
+        The order as the user wrote it (for messages).
+    theta_i_deg : str or None
+        ``--theta-i``: the incident polar angle of the slice (csv), degrees as in the run
+        config; None: the format's default.
+    output : pathlib.Path or None
+        The destination as given (:func:`export` fills it in): formats whose container
+        follows the file's suffix (albedo-lut: ``.npz`` or ``.h``) check it in ``prepare``,
+        since ``write`` is handed a temporary file name.
+    """
+
+    order: int = 0
+    order_text: str = "0"
+    theta_i_deg: str | None = None
+    output: Path | None = None
+
+
+def format_module(name: str):
+    """The module of format ``name``.
+
+    Raises
+    ------
+    ExportRefused
+        ``name`` is not a registered format (the message lists them).
+    """
+    if name not in FORMAT_MODULES:
+        raise ExportRefused(f"--format = {name!r}: accepted formats are {', '.join(FORMAT_MODULES)}")
+    return importlib.import_module(FORMAT_MODULES[name])
+
+
+def order_data(table, request: ExportRequest):
+    """The table's brdf of the requested order, shape (n_i, n_c), and its index.
+
+    Raises
+    ------
+    ExportRefused
+        The table has no such order (a table without f_inf, or K beyond its max order).
+    """
+    orders = [int(k) for k in table.order]
+    if request.order not in orders:
+        have = ", ".join("0 (f_inf)" if k == 0 else str(k) for k in orders)
+        raise ExportRefused(f"--order = {request.order_text!r}: table {str(table.path)!r} has orders {have}")
+    index = orders.index(request.order)
+    return table.brdf[:, index, :], index
+
+
+def export(source, format_name: str, request: ExportRequest, path) -> None:
+    """Export ``source`` to ``path`` atomically: all checks first, then one rename.
+
+    Parameters
+    ----------
+    source : vcavity.io.table.Table or vcavity.io.sweep_table.SweepData
+    format_name : str
+    request : ExportRequest
+    path : str or os.PathLike
+
+    Raises
+    ------
+    ExportRefused
+        Before anything is written; ``path`` is untouched.
+    """
+    from vcavity.io.atomic import replace_atomically
+
+    module = format_module(format_name)
+    if request.output is None:
+        request = dataclasses.replace(request, output=Path(path))
+    prepared = module.prepare(source, request)
+    replace_atomically(Path(path), lambda temporary: module.write(prepared, Path(temporary)))
