@@ -106,18 +106,28 @@ def _plot(series, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, len(series), figsize=(4.2 * len(series), 3.6), constrained_layout=True)
-    for ax, (title, rows) in zip(axes, series.items()):
+    from matplotlib.ticker import FixedLocator, NullLocator
+
+    columns = 2
+    fig, axes = plt.subplots(-(-len(series) // columns), columns, figsize=(11, 3.4 * -(-len(series) // columns)),
+                             constrained_layout=True, squeeze=False)
+    for ax in axes.ravel()[len(series):]:
+        ax.set_visible(False)
+    for ax, (title, rows) in zip(axes.ravel(), series.items()):
         x = [v for v, _ in rows]
         ax.plot(x, [r["ns_per_path"] for _, r in rows], "o-", label="ns per path")
         ax.set_xscale("log")
+        # label the measured points themselves (log minor-tick labels overlap on short ranges)
+        ax.xaxis.set_major_locator(FixedLocator(x))
+        ax.xaxis.set_minor_locator(NullLocator())
+        ax.set_xticklabels([f"{v:g}" for v in x], rotation=30 if len(x) > 5 else 0)
         ax.set_xlabel(title)
         ax.set_ylabel("tracing time per path (ns)")
         ax.set_ylim(bottom=0)
         twin = ax.twinx()
         twin.plot(x, [r["max_rss_mb"] for _, r in rows], "s--", color="tab:gray", label="peak memory")
         twin.set_ylabel("peak resident memory (MB)", color="tab:gray")
-        twin.set_ylim(bottom=0)
+        twin.set_ylim(0, 1.15 * max(r["max_rss_mb"] for _, r in rows))  # keep the line off the frame
         ax.grid(alpha=0.3)
     fig.suptitle("vcavity: cost per path against sensor, bounce cap, roughness and path count")
     fig.savefig(path, dpi=120)
