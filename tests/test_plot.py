@@ -14,6 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from tests.plots.png_checks import assert_png
 from vcavity import open_table
 from vcavity.cli import main
 from vcavity.plots import plot_table
@@ -22,7 +23,6 @@ from vcavity.plots.geometry import SIDE_OFFSET, plane_directions, plane_segments
 from vcavity.sensor import EqualAreaSensor
 
 ROOT = Path(__file__).resolve().parent.parent
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 
 
 def _config(folder, name, alpha, theta, max_order, track_all, resolution, paths):
@@ -50,23 +50,13 @@ def tables(tmp_path_factory):
     return paths
 
 
-def _assert_png(path):
-    import matplotlib.image
-
-    data = path.read_bytes()
-    assert data[:8] == PNG_SIGNATURE and len(data) > 10_000
-    pixels = matplotlib.image.imread(path)
-    assert pixels.shape[0] > 300 and pixels.shape[1] > 300
-    assert float(np.std(pixels[..., :3])) > 0.05  # drawn, not a blank canvas
-
-
 @pytest.mark.parametrize("kind", ["slice", "map", "albedo"])
 @pytest.mark.parametrize("name", ["fig7b", "f_only"])
 def test_every_kind_renders_for_every_table_type(tables, tmp_path, capsys, kind, name):
     out = tmp_path / f"{name}_{kind}.png"
     assert main(["plot", str(tables[name]), "--kind", kind, "-o", str(out)]) == 0
     assert capsys.readouterr().out.strip() == f"wrote {out}"
-    _assert_png(out)
+    assert_png(out)
 
 
 def test_log_map_and_default_output_beside_the_table(tables, capsys):
@@ -74,7 +64,7 @@ def test_log_map_and_default_output_beside_the_table(tables, capsys):
                  "--order", "f1", "inf"]) == 0
     out = tables["fig7b"].with_name("fig7b_map.png")
     assert capsys.readouterr().out.strip() == f"wrote {out}"
-    _assert_png(out)
+    assert_png(out)
 
 
 def test_map_albedo_and_model_free_slices_import_no_numba(tables, tmp_path):
@@ -135,7 +125,7 @@ def test_specular_peak_sits_at_the_mirror_direction(tables, tmp_path):
     model of the same cells agrees with the table (|z| < 4.5: false alarm 7e-6 per
     direction, normal approximation of about 2e3 counts)."""
     datas = plot_table(tables["sharp"], "slice", tmp_path / "sharp.png")
-    _assert_png(tmp_path / "sharp.png")
+    assert_png(tmp_path / "sharp.png")
     assert [d.theta_i_deg for d in datas] == [30.0, 60.0]
     for d in datas:
         f1 = d.brdf[1]
@@ -210,7 +200,7 @@ def test_fig7_script(tables, tmp_path, capsys):
     spec.loader.exec_module(fig7)
     out = tmp_path / "fig7.png"
     assert fig7.main([str(tables["fig7b"]), str(tables["sharp"]), "--theta-i", "60", "-o", str(out)]) == 0
-    _assert_png(out)
+    assert_png(out)
     assert fig7.main([str(tables["fig7b"]), "-o", str(tmp_path / "no" / "f.png")]) == 2
     assert fig7.main([str(tables["f_only"]), "-o", str(out)]) == 2  # default orders include f_inf
     assert "fig7: error: --order = f_inf" in capsys.readouterr().err

@@ -215,6 +215,31 @@ def _direction(theta, phi):
     return np.array([np.sin(theta) * np.cos(phi), np.sin(theta) * np.sin(phi), np.cos(theta)])
 
 
+def _eval_errors(tables, name, seed, fold=False, n_pairs=500):
+    """Relative differences of Mitsuba's eval (f cos θ_o) of the exported ``name`` table
+    from Table.eval x cos θ_o at random pairs with θ_o < 80 deg. ``fold``: evaluate the
+    table at the pair mirrored so that wi lies in [0, 90] deg (anisotropic tables)."""
+    mi = _mitsuba()
+    table = open_table(tables[name])
+    bsdf = mi.load_dict({"type": "measured", "filename": str(_export(tables[name]))})
+    rng = np.random.default_rng(seed)
+    context, errors = mi.BSDFContext(), []
+    while len(errors) < n_pairs:
+        wi = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
+        wo = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
+        if wo[2] < math.cos(math.radians(80)):
+            continue
+        si = mi.SurfaceInteraction3f()
+        si.wi = mi.Vector3f(*wi)
+        value = bsdf.eval(context, si, mi.Vector3f(*wo))[0]
+        mirror = np.array([np.sign(wi[0]) or 1.0, np.sign(wi[1]) or 1.0, 1.0]) if fold else np.ones(3)
+        expected = float(table.eval(wi * mirror, wo * mirror)) * wo[2]
+        errors.append(abs(value - expected) / expected)
+    errors = np.array(errors)
+    print(f"{name}: median {np.median(errors):.4f}, 90th percentile {np.quantile(errors, 0.9):.4f}")
+    return np.median(errors), np.quantile(errors, 0.9)
+
+
 @pytest.mark.render
 def test_mitsuba_eval_matches_the_table(tables):
     """Mitsuba's eval = f cos θ_o; against Table.eval x cos θ_o at random pairs (θ_o < 80°).
@@ -223,24 +248,8 @@ def test_mitsuba_eval_matches_the_table(tables):
     below 2 % (the colour grid is interpolated in the warp's domain; measured 0.06 % and
     0.5 % on a 2e6-path table).
     """
-    mi = _mitsuba()
-    table = open_table(tables["smooth"])
-    bsdf = mi.load_dict({"type": "measured", "filename": str(_export(tables["smooth"]))})
-    rng = np.random.default_rng(7)
-    context, errors = mi.BSDFContext(), []
-    while len(errors) < 500:
-        wi = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
-        wo = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
-        if wo[2] < math.cos(math.radians(80)):
-            continue
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*wi)
-        value = bsdf.eval(context, si, mi.Vector3f(*wo))[0]
-        expected = float(table.eval(wi, wo)) * wo[2]
-        errors.append(abs(value - expected) / expected)
-    errors = np.array(errors)
-    print(f"isotropic: median {np.median(errors):.4f}, 90th percentile {np.quantile(errors, 0.9):.4f}")
-    assert np.median(errors) < 0.005 and np.quantile(errors, 0.9) < 0.02, (np.median(errors), np.quantile(errors, 0.9))
+    median, q90 = _eval_errors(tables, "smooth", seed=7)
+    assert median < 0.005 and q90 < 0.02, (median, q90)
 
 
 @pytest.mark.render
@@ -249,25 +258,8 @@ def test_mitsuba_eval_matches_an_anisotropic_table(tables):
     90 deg) is evaluated at the directions mirrored into that quadrant. Documented error
     (docs/exports.md): median below 2 %, 90 % of pairs below 8 % for theta_o < 80 deg
     (a reader blends the colour grids of neighbouring azimuths, 11.25 deg apart)."""
-    mi = _mitsuba()
-    table = open_table(tables["aniso"])
-    bsdf = mi.load_dict({"type": "measured", "filename": str(_export(tables["aniso"]))})
-    rng = np.random.default_rng(8)
-    context, errors = mi.BSDFContext(), []
-    while len(errors) < 500:
-        wi = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
-        wo = _direction(math.acos(rng.random()), 2 * np.pi * rng.random())
-        if wo[2] < math.cos(math.radians(80)):
-            continue
-        si = mi.SurfaceInteraction3f()
-        si.wi = mi.Vector3f(*wi)
-        value = bsdf.eval(context, si, mi.Vector3f(*wo))[0]
-        mirror = np.array([np.sign(wi[0]) or 1.0, np.sign(wi[1]) or 1.0, 1.0])  # wi into [0, 90] deg
-        expected = float(table.eval(wi * mirror, wo * mirror)) * wo[2]
-        errors.append(abs(value - expected) / expected)
-    errors = np.array(errors)
-    print(f"anisotropic: median {np.median(errors):.4f}, 90th percentile {np.quantile(errors, 0.9):.4f}")
-    assert np.median(errors) < 0.02 and np.quantile(errors, 0.9) < 0.08, (np.median(errors), np.quantile(errors, 0.9))
+    median, q90 = _eval_errors(tables, "aniso", seed=8, fold=True)
+    assert median < 0.02 and q90 < 0.08, (median, q90)
 
 
 def _furnace(mi, bsdf_file, resolution=48, spp=256, seed=3):

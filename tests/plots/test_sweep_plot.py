@@ -16,11 +16,11 @@ import numpy as np
 import pytest
 import xarray as xr
 
+from tests.plots.png_checks import assert_png
 from tests.reference.synthetic_sweeps import synthetic_sweep
 from vcavity.cli import main
 from vcavity.plots import plot_table
 
-PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 ALPHA = [0.7, 0.1, 0.4, 1.0]  # not ascending: the plot sorts the x axis
 ETA = [1.0, 1.5, 2.0]
 THETA = [0.0, 60.0]
@@ -65,16 +65,6 @@ def sweeps(tmp_path_factory):
     }
 
 
-def _assert_png(path):
-    import matplotlib.image
-
-    data = path.read_bytes()
-    assert data[:8] == PNG_SIGNATURE and len(data) > 10_000
-    pixels = matplotlib.image.imread(path)
-    assert pixels.shape[0] > 300 and pixels.shape[1] > 300
-    assert float(np.std(pixels[..., :3])) > 0.05  # drawn, not a blank canvas
-
-
 def _expected(path, panel, line, order, by="alpha"):
     """Albedo and binomial stderr along ``by`` (ascending) at a panel and line, read by xarray."""
     with xr.open_dataset(path, engine="h5netcdf") as ds:
@@ -90,7 +80,7 @@ def test_a_sweep_file_is_drawn_as_kind_sweep_by_default(sweeps, capsys):
     assert main(["plot", str(sweeps["grid"])]) == 0
     out = sweeps["grid"].with_name("grid_sweep.png")
     assert capsys.readouterr().out.strip() == f"wrote {out}"
-    _assert_png(out)
+    assert_png(out)
 
 
 def test_plotted_numbers_are_the_sweep_albedo_and_binomial_error(sweeps, tmp_path):
@@ -112,7 +102,7 @@ def test_theta_i_and_order_choose_panels_and_curves(sweeps, tmp_path, capsys):
     out = tmp_path / "o.png"
     assert main(["plot", str(sweeps["grid"]), "--kind", "sweep", "--theta-i", "60", "--order", "inf", "2",
                  "-o", str(out)]) == 0
-    _assert_png(out)
+    assert_png(out)
     data = plot_table(sweeps["grid"], "sweep", tmp_path / "o2.png", theta_i_deg=["60"], orders=["inf", "2"])
     assert data.panels == [{"theta_i_deg": 60.0}] and data.orders == (2, 0)
     _, albedo, _ = _expected(sweeps["grid"], {"theta_i_deg": 60.0}, {"eta": 1.5}, 2)
@@ -122,7 +112,7 @@ def test_theta_i_and_order_choose_panels_and_curves(sweeps, tmp_path, capsys):
 def test_incidence_azimuth_and_a_text_axis(sweeps, tmp_path):
     """phi_i_deg swept: one panel per (theta_i, phi_i); distribution: one line per name."""
     data = plot_table(sweeps["phi"], output=tmp_path / "p.png")
-    _assert_png(tmp_path / "p.png")
+    assert_png(tmp_path / "p.png")
     assert data.panels == [{"theta_i_deg": 30.0, "phi_i_deg": 0.0}, {"theta_i_deg": 30.0, "phi_i_deg": 90.0}]
     assert data.lines == [{"distribution": "beckmann"}, {"distribution": "ggx"}]
     for i, panel in enumerate(data.panels):
@@ -142,7 +132,7 @@ def test_other_roughness_axes_are_the_x_axis(sweeps, tmp_path):
 
 def test_points_not_done_are_gaps(sweeps, tmp_path):
     data = plot_table(sweeps["pending"], output=tmp_path / "n.png")
-    _assert_png(tmp_path / "n.png")
+    assert_png(tmp_path / "n.png")
     for k in data.orders:
         assert np.all(np.isnan(data.albedo[k][:, 2])) and np.all(np.isfinite(data.albedo[k][:, :2]))
     _, albedo, _ = _expected(sweeps["pending"], {"theta_i_deg": 0.0}, {"eta": 1.5}, 1)
@@ -155,7 +145,7 @@ def test_error_bars_follow_the_estimator(sweeps, tmp_path):
     f_inf's error is the binomial one of the simulated part albedo_inf - albedo_1."""
     paper = plot_table(sweeps["paper"], output=tmp_path / "w.png")
     assert paper.stderr == {1: None, 0: None} and any("no error bars" in n for n in paper.notes)
-    _assert_png(tmp_path / "w.png")
+    assert_png(tmp_path / "w.png")
     exact = plot_table(sweeps["exact"], output=tmp_path / "e.png")
     assert exact.stderr[1] is None
     panel, line = {"theta_i_deg": 60.0}, {"eta": 1.0}

@@ -103,6 +103,36 @@ def _is_sweep(source) -> bool:
     return isinstance(source, SweepData)
 
 
+def select_theta(theta_deg, requested, source: str) -> list:
+    """Indices of the incident directions ``--theta-i`` names (all when ``requested`` is empty).
+
+    ``requested`` holds strings or numbers in degrees, matched within 1e-6 deg of the
+    tabulated ``theta_deg`` (every direction at a matching angle, in order, once).
+
+    Raises
+    ------
+    PlotError
+        A value that is not a number or matches no tabulated angle (``source`` names the
+        file in the message, which lists the tabulated angles).
+    """
+    theta = np.asarray(theta_deg, dtype=np.float64)
+    if not requested:
+        return list(range(theta.size))
+    indices = []
+    for value in requested:
+        try:
+            number = float(value)
+        except ValueError:
+            raise PlotError(f"--theta-i = {value!r}: expected an angle in degrees") from None
+        hits = np.flatnonzero(np.isclose(theta, number, rtol=0.0, atol=1e-6))
+        if hits.size == 0:
+            listed = ", ".join(f"{t:g}" for t in theta)
+            raise PlotError(f"--theta-i = {number:g}: not an incident direction of {source} "
+                            f"(theta_i_deg: {listed})")
+        indices.extend(int(h) for h in hits if int(h) not in indices)
+    return indices
+
+
 def check_request(table, kind: str | None = None, output=None, theta_i_deg=None, orders=None,
                   scale: str | None = None, models: bool = True) -> PlotRequest:
     """Check a plot request against a table (or a sweep) without computing anything.
@@ -169,22 +199,7 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
     else:
         chosen = tuple(k for k in DEFAULT_ORDERS[kind] if k in present)
     chosen = tuple(sorted(chosen, key=lambda k: (k == 0, k)))  # f1, f2, ..., f_inf
-    theta = np.asarray(table.theta_i_deg, dtype=np.float64)
-    if theta_i_deg:
-        indices = []
-        for value in theta_i_deg:
-            try:
-                value = float(value)
-            except ValueError:
-                raise PlotError(f"--theta-i = {value!r}: expected an angle in degrees") from None
-            hits = np.flatnonzero(np.isclose(theta, value, rtol=0.0, atol=1e-6))
-            if hits.size == 0:
-                listed = ", ".join(f"{t:g}" for t in theta)
-                raise PlotError(f"--theta-i = {float(value):g}: not an incident direction of table "
-                                f"{table.path.name} (theta_i_deg: {listed})")
-            indices.extend(int(h) for h in hits if int(h) not in indices)
-    else:
-        indices = list(range(theta.size))
+    indices = select_theta(table.theta_i_deg, theta_i_deg, f"table {table.path.name}")
     chosen_models = ()
     if kind == "slice" and models and 1 in chosen:
         from vcavity.analytic.single_bounce import ModelNotApplicable

@@ -87,7 +87,7 @@ def check_sweep_request(sweep, output=None, theta_i_deg=None, orders=None, scale
         One line: no roughness axis, a log scale, an order or theta_i the sweep lacks, a bad
         output.
     """
-    from vcavity.plots import PlotError, PlotRequest, check_output, parse_order
+    from vcavity.plots import PlotError, PlotRequest, check_output, parse_order, select_theta
 
     name = sweep.path.name if sweep.path is not None else "(in memory)"
     if scale is not None and scale != "linear":
@@ -111,21 +111,8 @@ def check_sweep_request(sweep, output=None, theta_i_deg=None, orders=None, scale
     else:
         chosen = tuple(k for k in DEFAULT_ORDERS if order_position(sweep, k) is not None)
     chosen = tuple(sorted(chosen, key=lambda k: (k == 0, k)))  # f1, f2, ..., f_inf
-    theta = np.asarray(next(a for a in sweep.axes if a.name == "theta_i_deg").values, dtype=np.float64)
-    indices = list(range(theta.size))
-    if theta_i_deg:
-        indices = []
-        for value in theta_i_deg:
-            try:
-                number = float(value)
-            except ValueError:
-                raise PlotError(f"--theta-i = {value!r}: expected an angle in degrees") from None
-            hits = np.flatnonzero(np.isclose(theta, number, rtol=0.0, atol=1e-6))
-            if hits.size == 0:
-                listed = ", ".join(f"{t:g}" for t in theta)
-                raise PlotError(f"--theta-i = {number:g}: not an incident direction of sweep {name} "
-                                f"(theta_i_deg: {listed})")
-            indices.extend(int(h) for h in hits if int(h) not in indices)
+    theta = next(a for a in sweep.axes if a.name == "theta_i_deg").values
+    indices = select_theta(theta, theta_i_deg, f"sweep {name}")
     return PlotRequest(kind="sweep", output=out, indices=tuple(indices), orders=chosen, scale="linear",
                        models=())
 
