@@ -20,6 +20,7 @@ from vcavity.checkpoint import RunState
 from vcavity.config import Material, RunConfig
 from vcavity.estimators import (ANALOG, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
                                 order_source, relative_error)
+from vcavity.f1_models import F1Models
 from vcavity.facet import registry as facets
 from vcavity.kernels import paper
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
@@ -34,9 +35,6 @@ DEFAULT_CHUNK_BLOCKS = 512
 #: Target-error runs decide whether to stop after every this many blocks (about 2.6e5
 #: paths): part of the definition of such a run, like BLOCK_SIZE (not tied to chunking).
 TARGET_CHECK_BLOCKS = 64
-#: Exact-f1: the model's quadrature error per cell is kept below this many times the
-#: cell's statistical standard error (see Simulation._refine_models).
-MODEL_TOLERANCE_FACTOR = 0.1
 #: Length of a work unit's statistics vector (see Simulation.execute).
 N_TALLY_STATS = N_STATS + 3
 
@@ -147,9 +145,8 @@ class Simulation:
         self.kernel = build(self.scene.dist_kind, self.scene.facet_kind, self.scene.facet_variant)
         self.first_binned_order = 2 if config.estimator == EXACT_F1 else 1
         self.compile_time_s = 0.0
-        self.models: list | None = None  # exact-f1: (integrals, error) per direction
+        self.f1_models = F1Models(config, self.sensor, incident_vector)  # exact-f1 only
         self.last_state: RunState | None = None  # the state of the last finished run
-        self.model_time_s = 0.0
 
     @property
     def total_paths(self) -> int:
@@ -173,60 +170,26 @@ class Simulation:
         return self.compile_time_s
 
     def prepare_models(self) -> float:
-        """Exact-f1: the cell integrals of the single-bounce model for every direction.
-
-        Before any path is traced, each direction's model is computed to a first
-        tolerance, a tenth of the statistical error of a cell that receives an average
-        share ``N / n_cells`` of the budget (``0.1 / sqrt(N n_cells)``); a material whose
-        model cannot reach it is refused here. At the end of the run the cells are
-        refined to a tenth of their own statistical error (:meth:`_refine_models`).
+        """Exact-f1: every direction's f1 model before any path is traced
+        (:meth:`vcavity.f1_models.F1Models.prepare`); 0 s for the other estimators.
 
         Raises
         ------
         vcavity.analytic.single_bounce.ModelNotApplicable
-            The model cannot reach that accuracy for this material (one line).
+            The model cannot reach the accuracy the run needs (one line).
         """
-        if self.config.estimator != EXACT_F1 or self.models is not None:
+        if self.config.estimator != EXACT_F1:
             return 0.0
-        from vcavity.analytic.exact_f1 import f1_cell_integrals
+        return self.f1_models.prepare()
 
-        t0 = time.perf_counter()
-        models = []
-        for d in self.config.incidence:
-            tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(d) * self.sensor.n_cells)
-            models.append(f1_cell_integrals(self.config.material, incident_vector(d.theta_i, d.phi_i),
-                                            self.sensor, tolerance))
-        self.models = models
-        self.model_time_s = time.perf_counter() - t0
-        return self.model_time_s
+    @property
+    def model_time_s(self) -> float:
+        """Seconds spent on the exact-f1 model (0 for the other estimators)."""
+        return self.f1_models.time_s
 
-    def _refine_models(self, state: RunState) -> None:
-        """Refine each direction's model where its error exceeds a tenth of the cell's
-        statistical error ``max(sqrt(n (1 - n/N)), 1) / N`` (n: the cell's simulated
-        count of orders >= 2; one path at least), the requirement of physics.md sec. 11.
-
-        A model that cannot be refined further keeps its error, which ``brdf_stderr``
-        includes and ``model_error_ratio`` reports: finished paths are never discarded.
-        """
-        if self.models is None:
-            return
-        from vcavity.analytic.exact_f1 import f1_cell_integrals
-        from vcavity.analytic.single_bounce import ModelNotApplicable
-
-        t0 = time.perf_counter()
-        paths = self.paths_done(state)
-        for j, d in enumerate(self.config.incidence):
-            seen = state.tally[j, 0].sum(axis=0).astype(np.float64)  # every slot: orders >= 2 only
-            n = float(paths[j])
-            tolerance = MODEL_TOLERANCE_FACTOR * np.maximum(np.sqrt(seen * (1.0 - seen / n)), 1.0) / n
-            if np.all(self.models[j][1] <= tolerance):
-                continue
-            try:
-                self.models[j] = f1_cell_integrals(self.config.material, incident_vector(d.theta_i, d.phi_i),
-                                                   self.sensor, tolerance)
-            except ModelNotApplicable:
-                pass
-        self.model_time_s += time.perf_counter() - t0
+    def _seen(self, state: RunState):
+        """Per direction, the simulated cell counts of orders >= 2 (every slot)."""
+        return [state.tally[j, 0].sum(axis=0).astype(np.float64) for j in range(len(self.config.incidence))]
 
     def execute(self, unit: WorkUnit) -> np.ndarray:
         """Trace one work unit; returns its integer tally summed over threads.
@@ -264,7 +227,7 @@ class Simulation:
             return counts, estimate_weighted(_table_counts(tally[1], c.track_all_orders),
                                              _table_counts(tally[2], c.track_all_orders), paths,
                                              paper.WEIGHT_SCALE, area, mirror=mirror)
-        model = self.models[direction] if self.models is not None else (None, None)
+        model = self.f1_models.of(direction)
         return counts, estimate_direction(counts, paths, c.orders, area, mirror=mirror,
                                           f1_integrals=model[0], f1_error=model[1])
 
@@ -393,7 +356,7 @@ class Simulation:
 
     def result(self, state: RunState) -> RunResult:
         """The tabulated outcome of a finished run state."""
-        self._refine_models(state)
+        self.f1_models.refine(self._seen(state), self.paths_done(state))
         c = self.config
         n_inc = len(c.incidence)
         shape = (n_inc, len(c.orders), self.sensor.n_cells)
@@ -422,22 +385,9 @@ class Simulation:
             order_source=order_source(c.orders, c.estimator),
             folded=np.array([c.folds(d) for d in c.incidence]),
             relative_error=error, target_reached=state.reached.copy() if c.target_error is not None else None,
-            model_time_s=self.model_time_s, model_error_ratio=self._model_error_ratio(state),
+            model_time_s=self.model_time_s, model_error_ratio=self.f1_models.error_ratio(self._seen(state), self.paths_done(state)),
             lost_fractions=stats[:, N_STATS:] / (paper.WEIGHT_SCALE * paths[:, None]) if self.weighted else None,
         )
-
-    def _model_error_ratio(self, state: RunState) -> float:
-        """Largest ratio of a cell's model error to its statistical error (see _refine_models)."""
-        if self.models is None:
-            return 0.0
-        paths = self.paths_done(state)
-        worst = 0.0
-        for j, (_, model_error) in enumerate(self.models):
-            n = float(paths[j])
-            seen = state.tally[j, 0].sum(axis=0).astype(np.float64)
-            statistical = np.maximum(np.sqrt(seen * (1.0 - seen / n)), 1.0) / n
-            worst = max(worst, float(np.max(model_error / statistical)))
-        return worst
 
 
 def _execute_here(simulation: Simulation, units):

@@ -5,7 +5,7 @@ cannot be a LUT is refused in one line with nothing written, and a small real sw
 lossless Lambertian facets exports end to end with f1 albedos that match an independent
 reference.
 
-Synthetic sweeps (tests/reference/synthetic_sweeps.py) carry albedos given by closed-form
+Synthetic sweeps (tests/export/synthetic_sweeps.py) carry albedos given by closed-form
 functions of (mu, alpha); expected values are read back with xarray (h5netcdf), a reader
 independent of vcavity's. Everything but the last test is exact or rounding-level. The
 last test's z-tests (15, Sidak-corrected) have a family-wise false-positive rate of 1 %.
@@ -25,7 +25,7 @@ import xarray as xr
 import vcavity
 from tests.reference import lambertian_orders as ref_lambert
 from tests.reference import materials as ref_materials
-from tests.reference.synthetic_sweeps import synthetic_sweep
+from tests.export.synthetic_sweeps import synthetic_sweep
 from vcavity.cli import main
 
 

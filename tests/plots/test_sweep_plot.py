@@ -3,7 +3,7 @@ right coordinates, the error bars the binomial error of the right direction, the
 renders, and what cannot be drawn is a one-line error with exit status 2.
 
 No simulation: the sweeps are written with albedos chosen here
-(tests/reference/synthetic_sweeps.py) and read back for the expected values with xarray
+(tests/export/synthetic_sweeps.py) and read back for the expected values with xarray
 (h5netcdf), a reader independent of vcavity's. Every check is exact: nothing statistical.
 """
 
@@ -17,7 +17,7 @@ import pytest
 import xarray as xr
 
 from tests.plots.png_checks import assert_png
-from tests.reference.synthetic_sweeps import synthetic_sweep
+from tests.export.synthetic_sweeps import synthetic_sweep
 from vcavity.cli import main
 from vcavity.plots import plot_table
 

@@ -29,6 +29,4 @@ merl_reader
     scales, half/difference angles), for the MERL export's round trip.
 tensor_file_reader
     A reader of the RGL ``tensor_file`` container, for the RGL export's tests.
-synthetic_sweeps
-    Sweep files with known albedos (no simulation), for the albedo LUT export.
 """
