@@ -7,7 +7,6 @@ output untouched, no file left behind); 130 interrupted.
 from __future__ import annotations
 
 import argparse
-import sys
 
 
 def _epilog() -> str:
@@ -57,6 +56,7 @@ def cmd_export(args) -> int:
     from vcavity.export import ExportRefused, ExportRequest, export, format_module
     from vcavity.io.sweep_table import is_sweep_file
     from vcavity.plots import PlotError, parse_order
+    from vcavity.plots.data import order_name
 
     try:
         module = format_module(args.format)
@@ -97,12 +97,8 @@ def cmd_export(args) -> int:
         return _error(str(exc))
     except OSError as exc:
         return _error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
-    print(f"wrote {out.path} ({args.format}, {_order_name(order)})")
+    print(f"wrote {out.path} ({args.format}, {order_name(order)})")
     return EXIT_OK
-
-
-def _order_name(order: int) -> str:
-    return "f_inf" if order == 0 else f"f{order}"
 
 
 def _open_source(path, shown: str, module, is_sweep: bool):
@@ -134,6 +130,3 @@ def _first_line(exc) -> str:
     text = str(exc)
     return text.splitlines()[0] if text else type(exc).__name__
 
-
-if __name__ == "__main__":  # pragma: no cover
-    sys.exit(1)

@@ -30,6 +30,7 @@ import numpy as np
 
 from vcavity import __version__
 from vcavity.export import ExportRefused, ExportRequest
+from vcavity.plots.data import order_name
 from vcavity.sweep_albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 NAME = "albedo-lut"
@@ -65,10 +66,6 @@ class AlbedoLut:
     paths: np.ndarray
     tables: dict
     metadata: dict = field(default_factory=dict)
-
-
-def _order_name(order: int) -> str:
-    return "f_inf" if order == 0 else f"f{order}"
 
 
 def _refuse_axes(sweep, shown: str) -> None:
@@ -185,7 +182,7 @@ def prepare(sweep, request: ExportRequest) -> AlbedoLut:
         suffix_name = f"_{name}" if name else ""
         values = grid(albedo(sweep, order))
         if not np.all(np.isfinite(values)):
-            raise ExportRefused(f"sweep {shown}: albedo of {_order_name(order)} holds non-finite values "
+            raise ExportRefused(f"sweep {shown}: albedo of {order_name(order)} holds non-finite values "
                                 "although every point is done: the file is damaged")
         tables[f"E{suffix_name}"] = values
         tables[f"E_avg{suffix_name}"] = midpoint_average(values, mu)
@@ -204,7 +201,7 @@ def prepare(sweep, request: ExportRequest) -> AlbedoLut:
         "sweep_file": str(sweep.path.name) if sweep.path is not None else "",
         "sweep_seed": str(sweep.attrs.get("seed")),
         "material": json.dumps({**sweep.material, **single, **sweep.scalars}, sort_keys=True, default=str),
-        "order": _order_name(request.order),
+        "order": order_name(request.order),
         "estimator": estimator,
         "stderr": stderr_rule(estimator),
         "quadrature": QUADRATURE,

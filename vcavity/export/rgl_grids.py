@@ -130,7 +130,7 @@ def vndf_slice(ndf_grid_values, wi):
     return ndf_grid_values * np.maximum(m @ wi, 0.0) * 2 * np.pi ** 2 * u_x * np.sin(u_to_theta(u_x))
 
 
-def colour_slice(evaluate, ndf, sigma, warp, wi, azimuth_of_m=0.0):
+def colour_slice(evaluate, ndf, sigma, warp, wi):
     """``R(s) = f cos(theta_o) 4 sigma / ndf`` at the colour nodes, for incident ``wi``.
 
     Parameters
@@ -142,16 +142,15 @@ def colour_slice(evaluate, ndf, sigma, warp, wi, azimuth_of_m=0.0):
     warp : vcavity.export.marginal2d.Marginal2D
         The reader's vndf warp of this slice.
     wi : ndarray (3,)
-    azimuth_of_m : float
-        Added to the warp's azimuth to get that of ``m`` (isotropic files store it
-        relative to ``phi_i``).
+        Incident direction; isotropic files have ``phi_i = 0``, where the warp's azimuth
+        (relative to ``phi_i``) is that of ``m``.
     """
     n = COLOUR_RESOLUTION
     s_y, s_x = np.meshgrid(np.linspace(0, 1, n), np.linspace(0, 1, n), indexing="ij")
     s_x = np.clip(s_x, _SAMPLE_EPSILON, 1 - _SAMPLE_EPSILON)
     s_y = np.clip(s_y, _SAMPLE_EPSILON, 1 - _SAMPLE_EPSILON)
     u_x, u_y = warp.sample(s_x, s_y)
-    m = direction(u_to_theta(u_x), u_to_phi(u_y) + azimuth_of_m)
+    m = direction(u_to_theta(u_x), u_to_phi(u_y))
     wo = 2 * (m @ wi)[..., None] * m - wi
     cos_o = wo[..., 2]
     up = cos_o > 0

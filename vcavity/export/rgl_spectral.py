@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity.export import rgl
-from vcavity.export.tensor_file import write_tensor_file
 
 NAME = "rgl-spectral"
 SOURCE = "table"
@@ -26,6 +25,4 @@ def prepare(table, request):
     return rgl.build_fields(table, request, colour_field="spectra", wavelengths=WAVELENGTHS_NM)
 
 
-def write(prepared, path) -> None:
-    """Write the tensor file."""
-    write_tensor_file(path, prepared)
+write = rgl.write
