@@ -1,4 +1,5 @@
-"""The fast binning path of direction_to_cell is identical to binning the exact inverse map."""
+"""The fast binning paths (direction_to_cell, and bin_block over a block of exits) are
+identical to binning the exact inverse map."""
 
 import numpy as np
 import pytest
@@ -8,6 +9,7 @@ from vcavity.binning import (
     _ATAN_MAX_ERROR,
     _atan_unit_fast,
     _square_coordinate_to_bin,
+    bin_block,
     direction_to_cell,
     hemisphere_to_square,
     square_to_hemisphere,
@@ -70,3 +72,42 @@ def test_fast_binning_is_identical_to_exact_binning(resolution):
     for directions in (random, _edge_directions(resolution, offsets)):
         fast, exact = _both(directions, resolution)
         np.testing.assert_array_equal(fast, exact)
+
+
+def _awkward_directions():
+    """What the walk can hand the binning besides unit vectors: the pole, zero and
+    non-finite vectors, z below 0 or above 1 (both clamped), |d| off 1, ties |x| = |y|,
+    subnormal components."""
+    tiny = 5e-324
+    rows = [(0, 0, 1), (0, 0, 0), (-0.0, 0.0, 1), (np.nan, 0, 1), (0, np.nan, 1), (1, np.nan, 0),
+            (np.nan, np.nan, np.nan), (0.6, 0.8, np.nan), (np.inf, 0, 0), (0, -np.inf, 0), (1e-300, 0, 1),
+            (0, -1e-300, 1), (tiny, tiny, 1), (-tiny, 0, 1), (0.5, 0.5, 0.5 ** 0.5), (-0.5, 0.5, 0.5 ** 0.5),
+            (0.5, -0.5, 0.5 ** 0.5), (-0.5, -0.5, 0.5 ** 0.5), (1, 0, -1e-17), (0.6, 0.8, -1e-3),
+            (0, 0, 1 + 2e-16), (2, 0, 0), (0, 0, 2), (0.3, 0.4, 1.5), (-0.3, 0.4, -0.5), (0.6 * (1 + 4e-16), 0.8, 0)]
+    return np.array(rows, dtype=np.float64)
+
+
+@pytest.mark.parametrize("resolution", [1, 2, 7, 57, 400])
+def test_block_binning_is_identical_to_direction_to_cell(resolution):
+    """bin_block (branch-free, vectorised) bins every direction exactly as direction_to_cell."""
+    rng = np.random.default_rng(32)
+    z = rng.uniform(0, 1, 200_000)
+    phi = rng.uniform(0, 2 * np.pi, z.size)
+    r = np.sqrt(1 - z * z)
+    random = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+    offsets = np.array([0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 3e-8, -3e-8, 1e-6, -1e-6])
+    edges = _edge_directions(resolution, offsets)
+    directions = np.concatenate([_awkward_directions(), random, edges, edges * (1 + 3e-16)])
+    fast, _exact = _both(directions, resolution)
+    xs, ys, zs = (np.ascontiguousarray(directions[:, k]) for k in range(3))
+    cells = np.empty(directions.shape[0], np.int64)
+    bin_block(xs, ys, zs, directions.shape[0], resolution, cells)
+    np.testing.assert_array_equal(cells, fast)
+
+
+def test_block_binning_writes_only_the_first_n():
+    directions = np.tile(_awkward_directions()[:1], (10, 1))
+    xs, ys, zs = (np.ascontiguousarray(directions[:, k]) for k in range(3))
+    cells = np.full(10, -7, np.int64)
+    bin_block(xs, ys, zs, 4, 57, cells)
+    assert list(cells) == [28 * 57 + 28] * 4 + [-7] * 6

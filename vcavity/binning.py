@@ -196,6 +196,64 @@ def direction_to_cell(x, y, z, resolution):
     return np.int64(iy) * resolution + ix
 
 
+@njit(cache=True, error_model="numpy")
+def bin_block(xs, ys, zs, n, resolution, cells):
+    """``cells[j] = direction_to_cell(xs[j], ys[j], zs[j], resolution)`` for ``j < n``.
+
+    The same arithmetic as :func:`direction_to_cell`, written without branches so the
+    first loop vectorises (SIMD sqrt, division and the atan polynomial over a block of
+    exits); the rare exits within the safety margin of a bin edge are re-binned exactly in
+    a second, scalar loop. The result is identical to :func:`direction_to_cell` element
+    by element (tested), including for degenerate and NaN input. ``error_model="numpy"``:
+    a division by zero (only in lanes whose result is discarded) must not raise.
+    """
+    fres = np.float64(resolution)
+    margin = resolution * 1e-7
+    half = _square_coordinate_to_bin(0.0, resolution)
+    centre = np.int64(half) * resolution + half
+    for j in range(n):
+        x = xs[j]
+        y = ys[j]
+        z = zs[j]
+        if z < 0.0:
+            z = 0.0
+        elif z > 1.0:
+            z = 1.0
+        radius_sq = (x * x + y * y) / (1.0 + z)
+        if radius_sq > 1.0:
+            radius_sq = 1.0
+        radius = np.sqrt(radius_sq)
+        abs_x = abs(x)
+        abs_y = abs(y)
+        swap = abs_y > abs_x
+        num = x if swap else y
+        den = y if swap else x
+        aden = abs_y if swap else abs_x
+        radial = radius if den > 0.0 else -radius
+        angular = radial * (FOUR_OVER_PI * _atan_unit_fast(num / den))
+        u = angular if swap else radial
+        v = radial if swap else angular
+        scaled = (angular + 1.0) * 0.5 * fres
+        frac = scaled - np.floor(scaled)
+        su = (u + 1.0) * 0.5 * fres
+        sv = (v + 1.0) * 0.5 * fres
+        # _square_coordinate_to_bin without branches: NaN and negative -> 0, >= N - 1 -> N - 1
+        su = su if su >= 0.0 else 0.0
+        sv = sv if sv >= 0.0 else 0.0
+        su = su if su < fres - 1.0 else fres - 1.0
+        sv = sv if sv < fres - 1.0 else fres - 1.0
+        iu = np.int64(su)
+        iv = np.int64(sv)
+        cell = iv * resolution + iu
+        exact = (frac < margin) | (frac > 1.0 - margin)
+        cells[j] = centre if not aden > 0.0 else (-1 - cell if exact else cell)
+    for j in range(n):
+        if cells[j] < 0:
+            uu, vv = hemisphere_to_square(xs[j], ys[j], zs[j])
+            cells[j] = (np.int64(_square_coordinate_to_bin(vv, resolution)) * resolution
+                        + _square_coordinate_to_bin(uu, resolution))
+
+
 @njit(cache=True)
 def directions_to_cells(directions, resolution):
     """Loop :func:`direction_to_cell` over the rows of an ``(M, 3)`` array."""

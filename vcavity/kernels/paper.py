@@ -27,7 +27,7 @@ import numpy as np
 from numba import prange
 
 from vcavity._jit import njit
-from vcavity.binning import direction_to_cell
+from vcavity.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
@@ -83,10 +83,17 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
+            exit_x = np.empty(BLOCK_SIZE)  # a block's exits, binned together (trace.get_kernel)
+            exit_y = np.empty(BLOCK_SIZE)
+            exit_z = np.empty(BLOCK_SIZE)
+            exit_row = np.empty(BLOCK_SIZE, np.int64)
+            exit_q = np.empty(BLOCK_SIZE, np.int64)
+            exit_cell = np.empty(BLOCK_SIZE, np.int64)
             for b in range(slot, n_blocks, n_slots):
                 block = first_block + b
                 n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
                 state = block_key(direction_key, block)
+                n_exits = 0
                 for _ in range(n_here):
                     state, tan_m, cos_phi, sin_phi = _sample_groove(state, DIST, params)
                     if tan_m < 1e150:
@@ -147,14 +154,23 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
                         wx = dx * cos_phi - dy * sin_phi
                         wy = dx * sin_phi + dy * cos_phi
                         inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
-                        cell = direction_to_cell(wx * inv, wy * inv, dz * inv, resolution)
-                        order = k if k <= max_order else 0
-                        weights[slot, order, cell] += q
-                        squares[slot, order, cell] += q * q
-                        counts[slot, order, cell] += 1
+                        exit_x[n_exits] = wx * inv
+                        exit_y[n_exits] = wy * inv
+                        exit_z[n_exits] = dz * inv
+                        exit_row[n_exits] = k if k <= max_order else 0
+                        exit_q[n_exits] = q
+                        n_exits += 1
                     else:
                         stats[slot, fate - 1] += q
                         stats[slot, PAPER_ABSORBED_PATHS + fate - 1] += 1
+                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+                for j in range(n_exits):
+                    order = exit_row[j]
+                    cell = exit_cell[j]
+                    q = exit_q[j]
+                    weights[slot, order, cell] += q
+                    squares[slot, order, cell] += q * q
+                    counts[slot, order, cell] += 1
         return weights, squares, counts, stats
 
     kernel.__qualname__ = kernel.__name__ = f"paper_kernel_d{DIST}_f{FACET}_v{VARIANT}"
