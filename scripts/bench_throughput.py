@@ -7,6 +7,8 @@ Three measurements, printed as tables (docs/performance.md records them):
    temporary ``git worktree`` (removed afterwards), and old and new kernels trace the
    figure 7(b) material at theta_i = 60 deg with 2 threads in alternating subprocesses
    (each compiled first, with its own Numba cache); median paths/s of each and the ratio.
+   A second pair: the old general kernel against this tree's f1-only walk, both on the
+   kd = 0 material (what the f1-only specialisation gained over the unspecialised walk).
 2. **Every specialisation** of the current kernel, 1 and 2 threads: the general walk, the
    exact-f1 estimator's binning skip, f1 only, the facet variants, an anisotropic roughness.
 3. **The plain-NumPy vectorised walk** (tests/reference/numpy_walk.py) single-threaded, and
@@ -47,7 +49,8 @@ spec = json.loads(sys.argv[1])
 from vcavity.config import validate
 from vcavity.simulate import Simulation, incident_vector
 from vcavity.rng import BLOCK_SIZE, direction_key
-cfg = validate({"material": spec["material"], "incidence": {"theta_i_deg": [spec["theta"]], "paths": spec["paths"]}})
+cfg = validate({"material": spec["material"], "incidence": {"theta_i_deg": [spec["theta"]], "paths": spec["paths"]},
+                "simulation": spec.get("simulation", {})})
 sim = Simulation(cfg, threads=spec["threads"])
 compile_s = sim.compile()
 d = cfg.incidence[0]
@@ -75,37 +78,57 @@ def _child(tree: Path, cache: Path, spec: dict) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
+KD0 = {**FIG7B, "kd": 0.0}
+F1_ONLY = {"max_order": 1, "track_all_orders": False}
+# (key, label, material of the old commit's run, material and simulation table of this tree's)
+PAIRS = [
+    ("fig7b", "fig. 7b general: old general vs this tree's general", FIG7B, FIG7B, {}),
+    ("kd0_f1", "kd = 0: old general vs this tree's f1 only", KD0, KD0, F1_ONLY),
+]
+
+
+def _pair_figures(rates: dict, cpu: dict) -> dict:
+    med = {k: statistics.median(v) for k, v in rates.items()}
+    cpu_med = {k: statistics.median(v) for k, v in cpu.items()}
+    return {"rates": rates, "median": med, "ratio": med["new"] / med["old"],
+            "pair_ratios": [n / o for o, n in zip(rates["old"], rates["new"])], "cpu_rates": cpu,
+            "cpu_median": cpu_med, "cpu_ratio": cpu_med["new"] / cpu_med["old"]}
+
+
 def against_commit(commit: str, paths: int, rounds: int, theta: float) -> dict:
-    """Median 2-thread paths/s of the old commit and of this tree, alternating subprocesses."""
+    """Median 2-thread paths/s of the old commit and of this tree, alternating subprocesses,
+    for each of PAIRS: the fig. 7(b) general kernels (the issue's 1.3x) and the old general
+    kernel against this tree's f1-only walk on the kd = 0 material (the specialisation)."""
     with tempfile.TemporaryDirectory(prefix="vcavity-bench-") as tmp:
         tmp = Path(tmp)
         old_tree = tmp / "old"
         subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", str(old_tree), commit],
                        check=True, capture_output=True, text=True)
         try:
-            spec = {"material": FIG7B, "theta": theta, "paths": paths, "threads": 2, "repeat": 1}
             caches = {"old": tmp / "cache-old", "new": Path(os.environ.get("NUMBA_CACHE_DIR", tmp / "cache-new"))}
             trees = {"old": old_tree, "new": ROOT}
-            compile_s = {}
-            for name in ("old", "new"):  # compile (or load) once, untimed
-                compile_s[name] = _child(trees[name], caches[name], {**spec, "paths": BLOCK, "repeat": 1})["compile_s"]
-            rates = {"old": [], "new": []}
-            cpu = {"old": [], "new": []}
-            for r in range(rounds):
-                order = ("old", "new") if r % 2 == 0 else ("new", "old")
-                for name in order:
-                    got = _child(trees[name], caches[name], spec)
-                    rates[name] += got["rates"]
-                    cpu[name] += got["cpu_rates"]
+            figures = {"commit": commit, "compile_s": {}}
+            for key, label, old_material, new_material, new_simulation in PAIRS:
+                specs = {"old": {"material": old_material, "simulation": {}},
+                         "new": {"material": new_material, "simulation": new_simulation}}
+                for name in ("old", "new"):
+                    specs[name].update(theta=theta, paths=paths, threads=2, repeat=1)
+                    # compile (or load) once, untimed
+                    figures["compile_s"][f"{key}/{name}"] = _child(
+                        trees[name], caches[name], {**specs[name], "paths": BLOCK})["compile_s"]
+                rates = {"old": [], "new": []}
+                cpu = {"old": [], "new": []}
+                for r in range(rounds):
+                    for name in (("old", "new") if r % 2 == 0 else ("new", "old")):
+                        got = _child(trees[name], caches[name], specs[name])
+                        rates[name] += got["rates"]
+                        cpu[name] += got["cpu_rates"]
+                figures[key] = {"label": label, **_pair_figures(rates, cpu)}
         finally:
             subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(old_tree)],
                            capture_output=True, text=True)
-    med = {k: statistics.median(v) for k, v in rates.items()}
-    cpu_med = {k: statistics.median(v) for k, v in cpu.items()}
-    pairs = [n / o for o, n in zip(rates["old"], rates["new"])]
-    return {"commit": commit, "rates": rates, "median": med, "ratio": med["new"] / med["old"],
-            "pair_ratios": pairs, "cpu_rates": cpu, "cpu_median": cpu_med,
-            "cpu_ratio": cpu_med["new"] / cpu_med["old"], "compile_s": compile_s}
+    # the fig. 7(b) pair's figures also at the top level (the plot and older JSON readers)
+    return {**figures, **{k: v for k, v in figures["fig7b"].items() if k != "label"}}
 
 
 # (label, material, simulation table, first_binned_order)
@@ -232,15 +255,18 @@ def main(argv=None) -> int:
 
     baseline = None
     if not args.skip_baseline:
-        print(f"1. fig. 7b material, theta_i = {args.theta_deg} deg, 2 threads, {paths:,} paths per run; "
+        print(f"1. theta_i = {args.theta_deg} deg, 2 threads, {paths:,} paths per run; "
               f"commit {args.baseline} vs this tree, {args.rounds} alternating rounds ({_load()})", flush=True)
         baseline = against_commit(args.baseline, paths, args.rounds, args.theta_deg)
-        for name in ("old", "new"):
-            print(f"  {name}: " + " ".join(f"{r / 1e6:.2f}" for r in baseline["rates"][name])
-                  + f" M/s, median {baseline['median'][name] / 1e6:.2f} M/s; per CPU second median "
-                  f"{baseline['cpu_median'][name] / 1e6:.2f} M/s")
-        print(f"  ratio of medians {baseline['ratio']:.3f} (per CPU second {baseline['cpu_ratio']:.3f}); "
-              "per-round ratios " + " ".join(f"{r:.3f}" for r in baseline["pair_ratios"]))
+        for key, *_ in PAIRS:
+            pair = baseline[key]
+            print(f"  {pair['label']}")
+            for name in ("old", "new"):
+                print(f"    {name}: " + " ".join(f"{r / 1e6:.2f}" for r in pair["rates"][name])
+                      + f" M/s, median {pair['median'][name] / 1e6:.2f} M/s; per CPU second median "
+                      f"{pair['cpu_median'][name] / 1e6:.2f} M/s")
+            print(f"    ratio of medians {pair['ratio']:.3f} (per CPU second {pair['cpu_ratio']:.3f}); "
+                  "per-round ratios " + " ".join(f"{r:.3f}" for r in pair["pair_ratios"]))
         out["baseline"] = baseline
 
     print(f"\n2. specialisations, median of {args.repeat} runs of {paths:,} paths ({_load()})")
