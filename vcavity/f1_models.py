@@ -38,8 +38,8 @@ class F1Models:
 
     Attributes
     ----------
-    models : list of (ndarray, ndarray) or None
-        ``(integrals, error)`` per direction, None before :meth:`prepare`.
+    models : list of vcavity.analytic.exact_f1.CellModel or None
+        Per direction (its ``values`` and ``error`` per cell), None before :meth:`prepare`.
     time_s : float
         Seconds spent computing them.
     """
@@ -62,14 +62,14 @@ class F1Models:
         """
         if self.models is not None:
             return 0.0
-        from vcavity.analytic.exact_f1 import f1_cell_integrals
+        from vcavity.analytic.exact_f1 import CellModel
 
         t0 = time.perf_counter()
         models = []
         for d in self.config.incidence:
             tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(d) * self.sensor.n_cells)
-            models.append(f1_cell_integrals(self.config.material, self._incident(d.theta_i, d.phi_i),
-                                            self.sensor, tolerance))
+            models.append(CellModel(self.config.material, self._incident(d.theta_i, d.phi_i), self.sensor,
+                                    tolerance))
         self.models = models
         self.time_s = time.perf_counter() - t0
         return self.time_s
@@ -79,22 +79,23 @@ class F1Models:
         statistical error (:func:`statistical_error` of ``seen_per_direction[j]``, the cell
         counts of orders >= 2, over ``paths[j]``), the requirement of physics.md sec. 11.
 
-        A model that cannot be refined further keeps its error, which ``brdf_stderr``
-        includes and :meth:`error_ratio` reports: finished paths are never discarded.
+        The refinement continues from the pre-run rules (:meth:`CellModel.refine_to
+        <vcavity.analytic.exact_f1.CellModel.refine_to>`): only the cells over tolerance
+        are recomputed. A model that cannot be refined further keeps the finest rules it
+        reached and their error, which ``brdf_stderr`` includes and :meth:`error_ratio`
+        reports: finished paths are never discarded.
         """
         if self.models is None:
             return
-        from vcavity.analytic.exact_f1 import f1_cell_integrals
         from vcavity.analytic.single_bounce import ModelNotApplicable
 
         t0 = time.perf_counter()
-        for j, d in enumerate(self.config.incidence):
+        for j, model in enumerate(self.models):
             tolerance = MODEL_TOLERANCE_FACTOR * statistical_error(seen_per_direction[j], float(paths[j]))
-            if np.all(self.models[j][1] <= tolerance):
+            if np.all(model.error <= tolerance):
                 continue
             try:
-                self.models[j] = f1_cell_integrals(self.config.material, self._incident(d.theta_i, d.phi_i),
-                                                   self.sensor, tolerance)
+                model.refine_to(tolerance)
             except ModelNotApplicable:
                 pass
         self.time_s += time.perf_counter() - t0
@@ -104,11 +105,13 @@ class F1Models:
         if self.models is None:
             return 0.0
         worst = 0.0
-        for j, (_, model_error) in enumerate(self.models):
+        for j, model in enumerate(self.models):
             statistical = statistical_error(seen_per_direction[j], float(paths[j]))
-            worst = max(worst, float(np.max(model_error / statistical)))
+            worst = max(worst, float(np.max(model.error / statistical)))
         return worst
 
     def of(self, j: int):
         """``(integrals, error)`` of direction ``j``, or ``(None, None)`` without models."""
-        return self.models[j] if self.models is not None else (None, None)
+        if self.models is None:
+            return None, None
+        return self.models[j].values, self.models[j].error

@@ -15,7 +15,7 @@ import pytest
 
 from vcavity.analytic import ModelNotApplicable
 from vcavity.analytic import exact_f1
-from vcavity.analytic.exact_f1 import f1_cell_integrals
+from vcavity.analytic.exact_f1 import CellModel, f1_cell_integrals
 from vcavity.config import validate
 from vcavity.sensor import EqualAreaSensor
 from vcavity.simulate import incident_vector
@@ -24,6 +24,7 @@ MATERIALS = {
     "smooth": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
     "sharp": {"distribution": "beckmann", "alpha": 0.05, "kd": 0.0, "eta": 1.5},
     "mirror": {"distribution": "beckmann", "alpha": 0.3, "facet": "mirror"},
+    "glossy": {"distribution": "beckmann", "alpha": 0.1, "kd": 0.5, "eta": 1.5},  # peak cells and a body
 }
 
 
@@ -31,7 +32,7 @@ def material(name):
     return validate({"material": MATERIALS[name]}).material
 
 
-@pytest.mark.parametrize("name", sorted(MATERIALS))
+@pytest.mark.parametrize("name", ["mirror", "sharp", "smooth"])
 @pytest.mark.parametrize("theta_deg", [0.0, 60.0, 85.0])
 def test_estimate_bounds_the_error_of_a_coarse_rule(name, theta_deg):
     sensor = EqualAreaSensor(9)
@@ -60,6 +61,29 @@ def test_refinement_reaches_the_tolerance():
     values, error = f1_cell_integrals(material("smooth"), i, sensor, tolerance)
     assert np.all(error <= tolerance)
     assert np.all(np.abs(values - fine) <= tolerance + fine_error)
+
+
+@pytest.mark.parametrize("name", ["smooth", "glossy"])
+def test_refining_further_reaches_the_new_tolerance(name):
+    """What the exact-f1 run does: a model built to a first tolerance, then refined to a
+    tighter per-cell one (CellModel.refine_to). Every estimate ends within the new
+    tolerance, the values within it (plus the reference's estimate) of a much finer rule,
+    and cells that already met it are not recomputed."""
+    sensor = EqualAreaSensor(5)
+    i = incident_vector(math.radians(60.0), 0.0)
+    fine, fine_error = f1_cell_integrals(material(name), i, sensor, np.inf, n_nodes=256, n_sub_body=16,
+                                         n_sub_specular=64, refine=False)
+    model = CellModel(material(name), i, sensor, 1e-5)
+    first_values, first_error = model.values.copy(), model.error.copy()
+    tolerance = 0.1 * np.sqrt(np.maximum(fine, 1e-12) / 1e9)
+    tolerance[::2] = 1.0  # every other cell keeps its first rules
+    assert np.any(first_error > tolerance)  # refinement is tested
+    model.refine_to(tolerance)
+    assert np.all(model.error <= tolerance)
+    assert np.all(np.abs(model.values - fine) <= tolerance + fine_error)
+    kept = (first_error <= tolerance)
+    if name == "smooth":  # no peak cell (whose rays are recomputed together)
+        np.testing.assert_array_equal(model.values[kept], first_values[kept])
 
 
 def test_unreachable_tolerance_raises_one_line(monkeypatch):

@@ -101,45 +101,90 @@ def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
         A tolerance that is negative, NaN or of the wrong shape; a starting rule below 2;
         an incident direction not in the upper hemisphere.
     """
-    incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
-    if not incident[2] > 0.0:
-        raise ValueError(f"incident = {incident.tolist()}: must point into the upper hemisphere (z > 0)")
+    model = CellModel(material, incident, sensor, tolerance, n_nodes=n_nodes, n_sub_body=n_sub_body,
+                      n_sub_specular=n_sub_specular, refine=refine)
+    return model.values.copy(), model.error.copy()
+
+
+def _tolerance_array(tolerance, sensor):
     tol = np.broadcast_to(np.asarray(tolerance, dtype=np.float64), (sensor.n_cells,)).copy() \
         if np.ndim(tolerance) == 0 or np.shape(tolerance) == (sensor.n_cells,) else None
     if tol is None:
         raise ValueError(f"tolerance: shape {np.shape(tolerance)}, expected a scalar or ({sensor.n_cells},)")
     if np.any(np.isnan(tol)) or np.any(tol < 0.0):
         raise ValueError("tolerance: must be >= 0 in every cell (no NaN)")
-    for name, value in (("n_nodes", n_nodes), ("n_sub_body", n_sub_body), ("n_sub_specular", n_sub_specular)):
-        if int(value) < 2:
-            raise ValueError(f"{name} = {value}: must be >= 2 (the error estimate halves it)")
-    model = SingleBounceModel(material, n_nodes=int(n_nodes))
-    parts = []
-    if model.has_specular:
-        parts.append(_Specular(model, incident, sensor, int(n_sub_specular), tol))
-    if model.body_factor > 0.0:
-        parts.append(_Body(material, model, incident, sensor, int(n_nodes), int(n_sub_body)))
-    values, error = _total(parts, sensor)
-    while refine:
-        over = np.flatnonzero(error > tol)
-        if over.size == 0:
-            break
-        # a component is refined in a cell when it alone uses more than its share
-        share = tol[over] / max(len(parts), 1)
-        progressed = False
-        for part in parts:
-            progressed |= part.refine(over, part.errors_at(over) > share)
-        values, error = _total(parts, sensor)
-        if not progressed:
-            over = np.flatnonzero(error > tol)
-            worst = over[np.argmax(error[over] - tol[over])]
-            raise ModelNotApplicable(
-                f"exact f1: the V-cavity model's quadrature error stays above the tolerance in {over.size} "
-                f"of {sensor.n_cells} cells (cell {worst}: {error[worst]:.3g} > {tol[worst]:.3g}) at the "
-                f"finest rules within bounded cost (body: {MAX_REFINE_NODES} nodes, {MAX_SUB_BODY} x "
-                f"{MAX_SUB_BODY} points per cell, {MAX_BODY_WORK:.0e} node-points; specular: {MAX_SUB} x {MAX_SUB} "
-                f"points, {MAX_SPECULAR_WORK:.0e} points, {MAX_RADIAL} radial nodes)")
-    return values, error
+    return tol
+
+
+class CellModel:
+    """The model of :func:`f1_cell_integrals` kept with its rules, so that it can be refined
+    further to a tighter tolerance without recomputing what is done (the exact-f1 estimator
+    refines the pre-run model once the counts are known, :mod:`vcavity.f1_models`).
+
+    Parameters are those of :func:`f1_cell_integrals`; ``values`` and ``error`` (arrays of
+    ``n_cells``) are its two results, updated by :meth:`refine_to`.
+    """
+
+    def __init__(self, material, incident, sensor: EqualAreaSensor, tolerance, *,
+                 n_nodes: int = START_BODY_NODES, n_sub_body: int = DEFAULT_BODY_SUB,
+                 n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True):
+        incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
+        if not incident[2] > 0.0:
+            raise ValueError(f"incident = {incident.tolist()}: must point into the upper hemisphere (z > 0)")
+        tol = _tolerance_array(tolerance, sensor)
+        for name, value in (("n_nodes", n_nodes), ("n_sub_body", n_sub_body), ("n_sub_specular", n_sub_specular)):
+            if int(value) < 2:
+                raise ValueError(f"{name} = {value}: must be >= 2 (the error estimate halves it)")
+        self.sensor = sensor
+        model = SingleBounceModel(material, n_nodes=int(n_nodes))
+        self.parts = []
+        if model.has_specular:
+            self.parts.append(_Specular(model, incident, sensor, int(n_sub_specular), tol))
+        if model.body_factor > 0.0:
+            self.parts.append(_Body(material, model, incident, sensor, int(n_nodes), int(n_sub_body)))
+        self.values, self.error = _total(self.parts, sensor)
+        if refine:
+            self._refine(tol)
+
+    def refine_to(self, tolerance) -> None:
+        """Refine the cells whose error exceeds ``tolerance`` (scalar or per cell), starting
+        from the rules reached so far; each call may spend the work bounds afresh.
+
+        Raises
+        ------
+        ModelNotApplicable
+            As :func:`f1_cell_integrals`; ``values`` and ``error`` then hold the finest
+            rules reached (still a valid result with its error).
+        """
+        tol = _tolerance_array(tolerance, self.sensor)
+        for part in self.parts:
+            part.work = 0.0
+            if isinstance(part, _Specular):
+                part.tighten(tol)
+        self.values, self.error = _total(self.parts, self.sensor)
+        self._refine(tol)
+
+    def _refine(self, tol):
+        parts, sensor = self.parts, self.sensor
+        while True:
+            over = np.flatnonzero(self.error > tol)
+            if over.size == 0:
+                return
+            # a component is refined in a cell when it alone uses more than its share
+            share = tol[over] / max(len(parts), 1)
+            progressed = False
+            for part in parts:
+                progressed |= part.refine(over, part.errors_at(over) > share)
+            self.values, self.error = _total(parts, sensor)
+            if not progressed:
+                over = np.flatnonzero(self.error > tol)
+                worst = over[np.argmax(self.error[over] - tol[over])]
+                raise ModelNotApplicable(
+                    f"exact f1: the V-cavity model's quadrature error stays above the tolerance in {over.size} "
+                    f"of {sensor.n_cells} cells (cell {worst}: {self.error[worst]:.3g} > {tol[worst]:.3g}) at the "
+                    f"finest rules within bounded cost (body: {MAX_REFINE_NODES} nodes, {MAX_SUB_BODY} x "
+                    f"{MAX_SUB_BODY} points per cell, {MAX_BODY_WORK:.0e} node-points; specular: {MAX_SUB} x "
+                    f"{MAX_SUB} points, {MAX_SPECULAR_WORK:.0e} points, {MAX_RADIAL} radial nodes)")
 
 
 def _total(parts, sensor):
@@ -283,6 +328,15 @@ class _Specular:
         return _integrate(self.model.specular_projected, self.incident, self.sensor, n_sub, cells, kink_z=kink,
                           hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16)
 
+    def tighten(self, tol):
+        """A tighter tolerance in a peak cell: recompute the peak rays to it (as a model
+        built for it from the start would)."""
+        if self.peak.size:
+            wanted = min(DEFAULT_PEAK_TOLERANCE, 0.25 * float(np.min(tol[self.peak])))
+            if wanted < self.peak_tolerance:
+                self.peak_tolerance = wanted
+                self._peak()
+
     def _peak(self):
         self.value[self.peak], self.error[self.peak] = peak_integrals(
             self.model, self.incident, self.sensor, self.peak, n_radial=self.n_radial,
@@ -314,5 +368,5 @@ class _Specular:
         return progressed
 
 
-__all__ = ["f1_cell_integrals", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
+__all__ = ["f1_cell_integrals", "CellModel", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
            "MAX_BODY_WORK", "MAX_SPECULAR_WORK", "guarded"]

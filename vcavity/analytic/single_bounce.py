@@ -117,6 +117,28 @@ def body_nodes(incident, kind, params, facet_kind, facet_data, t_nodes, t_weight
     return m[:count].copy(), weight[:count].copy(), g1_i[:count].copy()
 
 
+@njit(cache=True, fastmath={"reassoc"})
+def _vcavity_table_sum(ox, oy, oz, mx, my, mz, weight, g1_i, t_table):
+    """The V-cavity row sum of :func:`body_projected_sum` with the cubic T table, branch-free
+    and with a reassociable sum so that it vectorises (the order of the additions is the
+    only difference: round-off, ~1e-16 relative)."""
+    n = t_table.shape[0]
+    acc = 0.0
+    for k in range(mx.shape[0]):
+        om = ox * mx[k] + oy * my[k] + oz * mz[k]
+        g = g1_i[k] * om
+        limit = 2.0 * mz[k] * oz
+        g = limit if limit < g else g
+        x = om * n
+        j = int(x)
+        j = n - 1 if j >= n else j
+        j = 0 if j < 0 else j
+        s = x - j
+        t = ((t_table[j, 3] * s + t_table[j, 2]) * s + t_table[j, 1]) * s + t_table[j, 0]
+        acc += weight[k] * t * g if om > 0.0 else 0.0
+    return acc
+
+
 @njit(cache=True, parallel=True)
 def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, facet_kind, facet_data, t_table,
                        masking, walter_fit):
@@ -131,12 +153,17 @@ def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, facet_
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     out = np.zeros(outgoing.shape[0])
     n_m = m.shape[0]
+    mx_ = np.ascontiguousarray(m[:, 0])
+    my_ = np.ascontiguousarray(m[:, 1])
+    mz_ = np.ascontiguousarray(m[:, 2])
     for q in prange(outgoing.shape[0]):
         ox, oy, oz = outgoing[q, 0], outgoing[q, 1], outgoing[q, 2]
         if oz <= 0.0:
             continue
         acc = 0.0
-        if masking == VCAVITY:
+        if masking == VCAVITY and t_table.shape[0] > 0:
+            acc = _vcavity_table_sum(ox, oy, oz, mx_, my_, mz_, weight, g1_i, t_table)
+        elif masking == VCAVITY:
             for k in range(n_m):
                 mz = m[k, 2]
                 om = ox * m[k, 0] + oy * m[k, 1] + oz * mz
