@@ -279,3 +279,15 @@ def test_model_validation():
     model = SingleBounceModel(m)
     below = np.array([[0.6, 0.0, -0.8]])
     assert model.brdf(np.array([0, 0, 1.0]), below)[0] == 0.0
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 15, 16, 17, 2047, 2048, 2049])
+def test_ordered_sum_adds_every_term(n):
+    """The body row sum's fixed-order addition (_ordered_sum) against math.fsum, for lengths
+    around multiples of its eight partial sums (the tail included)."""
+    from vcavity.analytic.single_bounce import _ordered_sum
+
+    rng = np.random.default_rng(n)
+    terms = rng.uniform(0.0, 1.0, n) * rng.choice([1e-8, 1.0, 1e3], n)
+    exact = math.fsum(terms)
+    assert abs(_ordered_sum(terms) - exact) <= 1e-14 * max(exact, 1.0)
