@@ -61,15 +61,23 @@ def _edge_directions(resolution, offsets):
     return out[:k]
 
 
-@pytest.mark.parametrize("resolution", [1, 2, 7, 57, 400])
-def test_fast_binning_is_identical_to_exact_binning(resolution):
-    rng = np.random.default_rng(31)
-    z = rng.uniform(0, 1, 400_000)
+# offsets from a bin edge, in square coordinates: on it, within round-off, within the fast
+# atan's error (2e-8) and beyond
+EDGE_OFFSETS = np.array([0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 3e-8, -3e-8, 1e-6, -1e-6])
+
+
+def _random_directions(seed, n):
+    """``n`` directions uniform over the upper hemisphere."""
+    rng = np.random.default_rng(seed)
+    z = rng.uniform(0, 1, n)
     phi = rng.uniform(0, 2 * np.pi, z.size)
     r = np.sqrt(1 - z * z)
-    random = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    offsets = np.array([0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 3e-8, -3e-8, 1e-6, -1e-6])
-    for directions in (random, _edge_directions(resolution, offsets)):
+    return np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
+
+
+@pytest.mark.parametrize("resolution", [1, 2, 7, 57, 400])
+def test_fast_binning_is_identical_to_exact_binning(resolution):
+    for directions in (_random_directions(31, 400_000), _edge_directions(resolution, EDGE_OFFSETS)):
         fast, exact = _both(directions, resolution)
         np.testing.assert_array_equal(fast, exact)
 
@@ -90,14 +98,8 @@ def _awkward_directions():
 @pytest.mark.parametrize("resolution", [1, 2, 7, 57, 400])
 def test_block_binning_is_identical_to_direction_to_cell(resolution):
     """bin_block (branch-free, vectorised) bins every direction exactly as direction_to_cell."""
-    rng = np.random.default_rng(32)
-    z = rng.uniform(0, 1, 200_000)
-    phi = rng.uniform(0, 2 * np.pi, z.size)
-    r = np.sqrt(1 - z * z)
-    random = np.stack([r * np.cos(phi), r * np.sin(phi), z], axis=1)
-    offsets = np.array([0.0, 1e-15, -1e-15, 1e-12, -1e-12, 1e-9, -1e-9, 3e-8, -3e-8, 1e-6, -1e-6])
-    edges = _edge_directions(resolution, offsets)
-    directions = np.concatenate([_awkward_directions(), random, edges, edges * (1 + 3e-16)])
+    edges = _edge_directions(resolution, EDGE_OFFSETS)
+    directions = np.concatenate([_awkward_directions(), _random_directions(32, 200_000), edges, edges * (1 + 3e-16)])
     fast, _exact = _both(directions, resolution)
     xs, ys, zs = (np.ascontiguousarray(directions[:, k]) for k in range(3))
     cells = np.empty(directions.shape[0], np.int64)

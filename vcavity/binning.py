@@ -55,6 +55,22 @@ def square_to_hemisphere(u, v):
     return disk_x * lift, disk_y * lift, 1.0 - radius_sq
 
 
+@njit(cache=True, inline="always")
+def _square_radius(x, y, z):
+    """``max(|u|, |v|)`` of a direction: ``sqrt(r^2)`` with ``r^2 = (x^2 + y^2) / (1 + z)``
+    (equal to ``1 - z`` on the unit sphere, accurate near the pole, physics.md sec. 6), ``z``
+    clamped to ``[0, 1]`` and ``r^2`` to at most 1, so slightly non-normalised input (a few
+    ulp) and horizon directions are tolerated."""
+    if z < 0.0:
+        z = 0.0
+    elif z > 1.0:
+        z = 1.0
+    radius_sq = (x * x + y * y) / (1.0 + z)
+    if radius_sq > 1.0:
+        radius_sq = 1.0
+    return np.sqrt(radius_sq)
+
+
 @njit(cache=True)
 def hemisphere_to_square(x, y, z):
     """Inverse of :func:`square_to_hemisphere` for upper-hemisphere unit vectors.
@@ -75,14 +91,7 @@ def hemisphere_to_square(x, y, z):
     u, v : float
         Square coordinates in ``[-1, 1]``.
     """
-    if z < 0.0:
-        z = 0.0
-    elif z > 1.0:
-        z = 1.0
-    radius_sq = (x * x + y * y) / (1.0 + z)
-    if radius_sq > 1.0:
-        radius_sq = 1.0
-    radius = np.sqrt(radius_sq)
+    radius = _square_radius(x, y, z)
     abs_x = abs(x)
     abs_y = abs(y)
     # Branch order keeps every division away from zero (no exceptions in jitted
@@ -162,14 +171,7 @@ def direction_to_cell(x, y, z, resolution):
     int
         Cell index in ``[0, N^2)``.
     """
-    if z < 0.0:
-        z = 0.0
-    elif z > 1.0:
-        z = 1.0
-    radius_sq = (x * x + y * y) / (1.0 + z)
-    if radius_sq > 1.0:
-        radius_sq = 1.0
-    radius = np.sqrt(radius_sq)
+    radius = _square_radius(x, y, z)
     abs_x = abs(x)
     abs_y = abs(y)
     if abs_y > abs_x:
@@ -215,14 +217,7 @@ def bin_block(xs, ys, zs, n, resolution, cells):
         x = xs[j]
         y = ys[j]
         z = zs[j]
-        if z < 0.0:
-            z = 0.0
-        elif z > 1.0:
-            z = 1.0
-        radius_sq = (x * x + y * y) / (1.0 + z)
-        if radius_sq > 1.0:
-            radius_sq = 1.0
-        radius = np.sqrt(radius_sq)
+        radius = _square_radius(x, y, z)
         abs_x = abs(x)
         abs_y = abs(y)
         swap = abs_y > abs_x
