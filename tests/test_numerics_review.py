@@ -18,7 +18,7 @@ from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.microfacet import beckmann, ggx
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
-from vcavity.binning import direction_to_cell
+from vcavity.binning import bin_block, direction_to_cell
 from vcavity.simulate import Simulation, simulate
 
 U_ENDS = [0.0, 2.0**-53, 1e-300, 0.25, 0.5, 0.75, 1.0 - 2.0**-52, 1.0 - 2.0**-53]
@@ -242,4 +242,6 @@ def test_walk_is_float64_throughout():
     _assert_float64_only(_types_of(kernel.py_func, *recorded["args"]))
     _assert_float64_only(_types_of(fr.fresnel_dielectric.py_func, 0.3, 1.5))
     _assert_float64_only(_types_of(direction_to_cell.py_func, 0.1, 0.2, 0.97, 57))
+    exits = np.full(4, 0.5)
+    _assert_float64_only(_types_of(bin_block.py_func, exits, exits, exits, 4, 57, np.empty(4, np.int64)))
     _assert_float64_only(_types_of(beckmann.sample.py_func, 0.3, 0.7, _params("beckmann", 0.1, 0.5)))

@@ -260,7 +260,8 @@ def test_info(sandbox, case):
     assert f"format v{FORMAT_VERSION}" in result.stdout and "albedo f1" in result.stdout
 
 
-@pytest.mark.parametrize("case", CASES)
+# each case compiles the kernel in a fresh cache (~15 s): the fallback case runs in the slow suite
+@pytest.mark.parametrize("case", ["writable tmp", pytest.param("unwritable tmp", marks=pytest.mark.slow)])
 def test_run_compiles_and_writes_a_table(sandbox, case):
     output, result = _vcavity_run(sandbox, case)
     _assert_clean(result)
