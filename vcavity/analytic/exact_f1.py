@@ -159,8 +159,7 @@ class CellModel:
         tol = _tolerance_array(tolerance, self.sensor)
         for part in self.parts:
             part.work = 0.0
-            if isinstance(part, _Specular):
-                part.tighten(tol)
+            part.tighten(tol)
         self.values, self.error = _total(self.parts, self.sensor)
         self._refine(tol)
 
@@ -250,6 +249,9 @@ class _Body:
 
     def errors_at(self, cells):
         return self.error[cells]
+
+    def tighten(self, tol):
+        """Nothing to redo for a new tolerance: the body's rules depend on none (refine does it)."""
 
     def _model(self, n_nodes):
         if n_nodes not in self.models:
