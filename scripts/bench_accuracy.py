@@ -24,7 +24,7 @@ from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.statistics import binomial_mean_abs_deviation, pearson_chi_square, sidak_threshold
 from vcavity.config import DEFAULT_SENSOR_RESOLUTION, validate
-from vcavity.simulate import incident_vector, simulate
+from vcavity.simulate.pipeline import incident_vector, simulate
 
 FIG7 = {"distribution": "beckmann", "alpha": 0.6, "facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}
 

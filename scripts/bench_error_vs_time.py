@@ -29,7 +29,7 @@ import time
 import numpy as np
 
 from vcavity import config as config_mod
-from vcavity.simulate import Simulation
+from vcavity.simulate.pipeline import Simulation
 
 MATERIALS = {
     "fig7b (beckmann 0.6, kd 0.9, eta 1.5)": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},

@@ -29,7 +29,7 @@ BASE = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
 CHILD = r"""
 import json, resource, sys, time
 from vcavity import config as config_mod
-from vcavity.simulate import Simulation
+from vcavity.simulate.pipeline import Simulation
 spec = json.loads(sys.argv[1])
 raw = {"material": spec["material"],
        "incidence": {"theta_i_deg": [60.0], "paths": spec["paths"]},

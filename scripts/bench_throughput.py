@@ -151,7 +151,7 @@ def variants_table(paths: int, repeat: int, theta: float) -> list[dict]:
 
     from vcavity.config import validate
     from vcavity.rng import BLOCK_SIZE, direction_key
-    from vcavity.simulate import Scene, incident_vector
+    from vcavity.simulate.pipeline import Scene, incident_vector
     from vcavity.kernels.trace import get_kernel
 
     rows = []
@@ -296,7 +296,7 @@ def main(argv=None) -> int:
         import numba
 
         from vcavity.config import validate
-        from vcavity.simulate import Simulation
+        from vcavity.simulate.pipeline import Simulation
 
         numba.set_num_threads(2)
         cfg = validate({"material": FIG7B, "incidence": {"theta_i_deg": [args.theta_deg], "paths": 10**9}})

@@ -78,7 +78,7 @@ def main(argv=None) -> int:
     from vcavity.plots import PlotError, check_output, check_request, parse_order
     from vcavity.plots import data as plot_data
     from vcavity.plots import figures
-    from vcavity.report import format_material
+    from vcavity.io.summary import format_material
 
     try:  # what can be checked before running anything
         output = check_output(args.output)

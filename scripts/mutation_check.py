@@ -47,7 +47,7 @@ class Mutant:
 
 
 MUTANTS = (
-    Mutant("block-binning-no-exact-pass", "vcavity/binning.py",
+    Mutant("block-binning-no-exact-pass", "vcavity/sensor/binning.py",
            "        if cells[j] < 0:",
            "        if cells[j] < -10**18:",
            "exits near a bin edge keep the fast atan's (flagged) bin instead of being re-binned exactly",
@@ -57,7 +57,7 @@ MUTANTS = (
            "    while k < n:\n        k += 1",
            "the body row sum drops the last n mod 8 terms",
            ("tests/analytic/test_single_bounce.py",)),
-    Mutant("f1-refinement-too-loose", "vcavity/f1_models.py",
+    Mutant("f1-refinement-too-loose", "vcavity/simulate/f1_models.py",
            "                model.refine_to(tolerance)",
            "                model.refine_to(tolerance * 3)",
            "exact-f1's post-run model refined to 0.3 instead of 0.1 of the statistical error",
@@ -78,7 +78,7 @@ MUTANTS = (
            "        if variant == -1:\n            # accept with probability T(mu)",
            "light leaving the body is not filtered by the interface's transmittance",
            ("tests/validation/test_f1_reference.py",)),
-    Mutant("solid-angle-x2", "vcavity/sensor.py",
+    Mutant("solid-angle-x2", "vcavity/sensor/grid.py",
            "projected = 0.5 * np.pi * _projected_integral_over_rectangles(*self.cell_bounds())",
            "projected = np.pi * _projected_integral_over_rectangles(*self.cell_bounds())",
            "every cell's projected solid angle doubled (tables' BRDF off by 2x)",

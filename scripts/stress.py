@@ -40,14 +40,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-from vcavity.binning import direction_to_cell
+from vcavity.sensor.binning import direction_to_cell
 from vcavity.config import validate
 from vcavity.facet import registry as facets
 from vcavity.io.table import open_table, write_table
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import Roughness
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate import incident_vector, simulate
+from vcavity.simulate.pipeline import incident_vector, simulate
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # also when imported by the tests
 from stress_f1 import body_escape, clipped_cos_average, f1_reference, reemission_probability  # noqa: E402

@@ -19,12 +19,12 @@ import math
 import numpy as np
 from numba import literally, njit, prange
 
-from vcavity.binning import direction_to_cell
+from vcavity.sensor.binning import direction_to_cell
 from vcavity.config import Material, validate
 from vcavity.facet import registry as facets
 from vcavity.facet.fresnel import emergence_probability
 from vcavity.microfacet import registry as distributions
-from vcavity.simulate import Scene, incident_vector
+from vcavity.simulate.pipeline import Scene, incident_vector
 
 
 @njit(cache=True, inline="always")

@@ -1,4 +1,4 @@
-"""Interpolation error of the table API (vcavity.brdf) against the analytic f1.
+"""Interpolation error of the table API (vcavity.brdf.table_brdf) against the analytic f1.
 
 For a material, writes an "exact" single-bounce table: every cell holds the cell average
 of the V-cavity single-bounce model (vcavity.analytic.cells.cell_average, the quantity a
@@ -38,7 +38,7 @@ from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.config import Material
 from vcavity.io.table import open_table, write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 MATERIALS = {
     "smooth": dict(distribution="beckmann", alpha=0.6, facet="interfaced_lambertian", kd=0.9, eta=1.5),

@@ -1,4 +1,4 @@
-"""The renderer API of a table (vcavity.brdf, docs/table-api.md): eval, pdf, sample, albedo.
+"""The renderer API of a table (vcavity.brdf.table_brdf, docs/table-api.md): eval, pdf, sample, albedo.
 
 Tables here are synthetic: closed-form NumPy BRDFs written at every cell centre through
 ``write_table`` as counts at 1e15 paths, so no simulation and no Numba is needed. The sensor
@@ -20,9 +20,9 @@ import pytest
 from scipy import stats
 
 from tests.reference import sensor as ref
-from vcavity.brdf import DirectionNotTabulated, TableBRDF
+from vcavity.brdf.table_brdf import DirectionNotTabulated, TableBRDF
 from vcavity.io.table import open_table, write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 PATHS = 10**15
 ISOTROPIC = {"distribution": "beckmann", "facet": "interfaced_lambertian", "alpha_x": 0.3,

@@ -1,5 +1,5 @@
 """Checkpoints: an interrupted and resumed run gives the uninterrupted table, bit for bit
-(vcavity/checkpoint.py, Simulation.run(state=..., should_stop=...)).
+(vcavity/io/checkpoint.py, Simulation.run(state=..., should_stop=...)).
 
 The interruption points are chosen by counting chunks, so the tests exercise stops inside
 a direction, between directions and inside a target-error check interval.
@@ -9,9 +9,9 @@ import h5py
 import numpy as np
 import pytest
 
-from vcavity import checkpoint
+from vcavity.io import checkpoint
 from vcavity import config as config_mod
-from vcavity.simulate import RunInterrupted, Simulation
+from vcavity.simulate.pipeline import RunInterrupted, Simulation
 
 RAW = {"material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
        "incidence": {"theta_i_deg": [20.0, 65.0], "paths": 300_000},

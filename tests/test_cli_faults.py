@@ -280,7 +280,7 @@ def test_ctrl_c_during_the_write_keeps_the_old_table(box, capsys, monkeypatch, s
 def test_not_enough_disk_or_memory_is_refused_with_the_figures(box, capsys, monkeypatch):
     from collections import namedtuple
 
-    from vcavity import preflight
+    from vcavity.io import preflight
 
     before = snapshot(box)
     with monkeypatch.context() as patch:

@@ -14,7 +14,7 @@ from vcavity.compare import compare_table, format_report
 from vcavity.config import validate
 from vcavity.io.table import open_table, write_table
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 FIG7 = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
 GAUSSIAN = {"distribution": "gaussian", "sigma": 0.4, "kd": 0.8, "eta": 1.0}

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from vcavity import config as config_mod
-from vcavity.simulate import Simulation
+from vcavity.simulate.pipeline import Simulation
 
 pytestmark = pytest.mark.slow
 distributed = pytest.importorskip("distributed")
@@ -27,7 +27,7 @@ RAW = {"material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 
 
 @pytest.fixture(scope="module")
 def executor():
-    from vcavity.distributed import DaskExecutor
+    from vcavity.simulate.dask import DaskExecutor
 
     with DaskExecutor("local:2") as running:
         yield running
@@ -76,7 +76,7 @@ def test_two_processes_compiling_one_kernel_into_one_cache(tmp_path):
         import sys
         import numpy as np
         from vcavity import config as config_mod
-        from vcavity.simulate import simulate
+        from vcavity.simulate.pipeline import simulate
         raw = {"material": {"distribution": "ggx", "alpha": 0.4, "facet": "mirror"},
                "incidence": {"theta_i_deg": [40.0], "paths": 50000},
                "simulation": {"seed": 2, "max_order": 2, "sensor_resolution": 9}}

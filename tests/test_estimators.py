@@ -20,7 +20,7 @@ from vcavity.estimators import (
     order_source,
     relative_error,
 )
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 ALPHA = 1e-3  # false-alarm rate of each chi-square test below
 
@@ -125,7 +125,7 @@ def test_exact_f1_adds_the_model_and_its_error():
 # --- the fold on simulated tables --------------------------------------------------------
 
 def _run(material, phi_deg, paths, seed, fold, theta_deg=60.0, resolution=19):
-    from vcavity.simulate import simulate
+    from vcavity.simulate.pipeline import simulate
 
     raw = {"material": material,
            "incidence": {"theta_i_deg": [theta_deg], "phi_i_deg": phi_deg, "paths": paths},
@@ -240,7 +240,7 @@ def test_exact_f1_table_holds_the_model_and_refuses_compare(tmp_path):
     raw = {"material": material, "incidence": {"theta_i_deg": [40.0], "paths": 300_000},
            "simulation": {"seed": 9, "max_order": 2, "sensor_resolution": 15, "estimator": "exact-f1"}}
     cfg = config_mod.validate(raw)
-    from vcavity.simulate import simulate
+    from vcavity.simulate.pipeline import simulate
 
     exact = simulate(cfg)
     analog = simulate(config_mod.validate({**raw, "simulation": {**raw["simulation"], "estimator": "analog"}}))

@@ -1,13 +1,13 @@
-"""The exact-f1 estimator's per-direction models (vcavity.f1_models): refined after the run
+"""The exact-f1 estimator's per-direction models (vcavity.simulate.f1_models): refined after the run
 until every cell's quadrature error is within a tenth of its statistical error."""
 
 import numpy as np
 import pytest
 
 from vcavity import config as config_mod
-from vcavity.f1_models import MODEL_TOLERANCE_FACTOR, F1Models, statistical_error
-from vcavity.sensor import EqualAreaSensor
-from vcavity.simulate import incident_vector
+from vcavity.simulate.f1_models import MODEL_TOLERANCE_FACTOR, F1Models, statistical_error
+from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate.pipeline import incident_vector
 
 
 def _models(paths):

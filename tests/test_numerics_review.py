@@ -18,8 +18,8 @@ from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.microfacet import beckmann, ggx
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
-from vcavity.binning import bin_block, direction_to_cell
-from vcavity.simulate import Simulation, simulate
+from vcavity.sensor.binning import bin_block, direction_to_cell
+from vcavity.simulate.pipeline import Simulation, simulate
 
 U_ENDS = [0.0, 2.0**-53, 1e-300, 0.25, 0.5, 0.75, 1.0 - 2.0**-52, 1.0 - 2.0**-53]
 PARAMS = {

@@ -20,7 +20,7 @@ from vcavity.cli import main
 from vcavity.plots import plot_table
 from vcavity.plots.figures import _disk, _disk_mesh
 from vcavity.plots.geometry import SIDE_OFFSET, plane_directions, plane_segments
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -27,7 +27,7 @@ from vcavity.facet.fresnel import (
 from vcavity.io.table import open_table, write_table
 from vcavity.microfacet import beckmann, gaussian, ggx, phong, registry
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 FAST = settings(deadline=None, max_examples=60, suppress_health_check=[HealthCheck.too_slow])
 SLOW = settings(deadline=None, max_examples=12, suppress_health_check=[HealthCheck.too_slow,

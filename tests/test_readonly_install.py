@@ -1,4 +1,4 @@
-"""Reading tables needs no JIT, and a read-only install works (vcavity/_jit.py, README).
+"""Reading tables needs no JIT, and a read-only install works (vcavity/_numba/jit.py, README).
 
 The read-only tests copy the package into a temporary folder that the child processes
 cannot write, give them an unwritable HOME and no NUMBA_CACHE_DIR, and run the public
@@ -28,7 +28,7 @@ import pytest
 from vcavity.io.schema import FORMAT_VERSION
 
 from vcavity.io.table import write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 REPO = Path(__file__).resolve().parents[1]
 V1_TABLE = REPO / "tests" / "io" / "data" / "table_v1.h5"
@@ -96,7 +96,7 @@ def test_open_table_imports_no_numba(tmp_path, which):
     path = V1_TABLE if which == "v1" else tmp_path / "t.h5"
     if which == "fresh":
         _write_small_table(path)
-    code = ("import vcavity, vcavity.report\n"  # report.py formats what `info` prints
+    code = ("import vcavity, vcavity.io.summary\n"  # report.py formats what `info` prints
             "print(vcavity.open_table(sys.argv[1]).format_version)\n")
     lines = _run_with_numba_spy(code, path, tmp_path)
     assert lines == ["1" if which == "v1" else str(FORMAT_VERSION), "numba imported by: None"]

@@ -16,7 +16,9 @@ import time
 import numpy as np
 import pytest
 
-from vcavity import checkpoint, open_table
+from vcavity import open_table
+
+from vcavity.io import checkpoint
 
 CONFIG = """
 [material]

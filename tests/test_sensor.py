@@ -1,4 +1,4 @@
-"""Tests of the equal-solid-angle sensor (vcavity.sensor; physics.md sections 6 and 9).
+"""Tests of the equal-solid-angle sensor (vcavity.sensor.grid; physics.md sections 6 and 9).
 
 The module under test uses atan of a ratio and r^2 = (x^2 + y^2)/(1 + z); the plain
 NumPy references here use the textbook forms (cos(pi/2 - a), arctan2 on the disk point)
@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from scipy import stats
 
-from vcavity.binning import direction_to_cell, hemisphere_to_square, square_to_hemisphere
-from vcavity.sensor import EqualAreaSensor, square_to_hemisphere_array
+from vcavity.sensor.binning import direction_to_cell, hemisphere_to_square, square_to_hemisphere
+from vcavity.sensor.grid import EqualAreaSensor, square_to_hemisphere_array
 
 RESOLUTIONS = [1, 2, 57, 100]
 
@@ -359,7 +359,7 @@ def test_sensor_geometry_imports_no_numba():
     """Describing cells (what reading a table needs) never imports Numba; binning does."""
     code = (
         "import sys\n"
-        "from vcavity.sensor import EqualAreaSensor\n"
+        "from vcavity.sensor.grid import EqualAreaSensor\n"
         "s = EqualAreaSensor(7)\n"
         "s.cell_center, s.cell_theta, s.cell_phi, s.cell_bounds()\n"
         "s.cell_solid_angle, s.cell_projected_solid_angle\n"

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from vcavity.binning import (
+from vcavity.sensor.binning import (
     _ATAN_MAX_ERROR,
     _atan_unit_fast,
     _square_coordinate_to_bin,

@@ -11,7 +11,7 @@ import pytest
 from scipy import stats
 
 from vcavity.config import validate
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 
 def _config(material, theta_i_deg=(0.0, 60.0), paths=100_000, phi_i_deg=0.0, **simulation):
@@ -142,7 +142,7 @@ def test_flat_lambertian_limit_is_kd_over_pi():
     res = 9
     result = simulate(_config({"distribution": "beckmann", "alpha": 1e-5, "kd": kd, "eta": 1.0},
                               theta_i_deg=(35.0,), paths=300_000, sensor_resolution=res))
-    from vcavity.sensor import EqualAreaSensor
+    from vcavity.sensor.grid import EqualAreaSensor
 
     proj = EqualAreaSensor(res).cell_projected_solid_angle
     n = result.paths[0]

@@ -22,10 +22,10 @@ import pytest
 import xarray as xr
 
 from vcavity import config as config_mod
-from vcavity import sweep as sweep_mod
-from vcavity import sweep_run
+from vcavity.sweep import spec as sweep_mod
+from vcavity.sweep import run as sweep_run
 from vcavity.cli import main
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 BASE = ('[material]\ndistribution = "beckmann"\nfacet = "interfaced_lambertian"\nkd = 0.9\n'
         "[incidence]\npaths = 20_000\n[simulation]\nseed = 17\nsensor_resolution = 9\n")
@@ -49,7 +49,7 @@ def swept(tmp_path_factory):
 
 
 def _seed(sweep_seed, material):
-    """The seed recipe of docs/sweeps.md, written out here independently of vcavity.sweep."""
+    """The seed recipe of docs/sweeps.md, written out here independently of vcavity.sweep.spec."""
     text = json.dumps({"seed": sweep_seed, "material": material}, sort_keys=True)
     return int.from_bytes(hashlib.sha256(("vcavity-sweep-point-v1\n" + text).encode()).digest()[:8], "little")
 

@@ -8,7 +8,7 @@ import pytest
 
 from vcavity import config as config_mod
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate import TARGET_CHECK_BLOCKS, simulate
+from vcavity.simulate.pipeline import TARGET_CHECK_BLOCKS, simulate
 
 MATERIAL = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
 STEP = TARGET_CHECK_BLOCKS * BLOCK_SIZE

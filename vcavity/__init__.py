@@ -8,7 +8,7 @@ open_table(path)
     ``t.eval(wi, wo, order)``, ``t.sample(wi, u1, u2, order)``, ``t.pdf(wi, wo, order)``,
     ``t.albedo_at(wi, order)`` (docs/table-api.md).
 TableBRDF, DirectionNotTabulated
-    That renderer view (:mod:`vcavity.brdf`, plain NumPy) and its error for incident
+    That renderer view (:mod:`vcavity.brdf.table_brdf`, plain NumPy) and its error for incident
     azimuths an anisotropic table does not cover.
 """
 
@@ -30,7 +30,7 @@ def open_table(path):
 def __getattr__(name):
     # Lazy, like open_table: `import vcavity` stays free of h5py and of the table API.
     if name in ("TableBRDF", "DirectionNotTabulated"):
-        from vcavity import brdf
+        from vcavity.brdf import table_brdf as brdf
 
         return getattr(brdf, name)
     raise AttributeError(f"module 'vcavity' has no attribute {name!r}")

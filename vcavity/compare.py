@@ -46,7 +46,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import ConfigError, Material
-from vcavity.simulate import incident_vector
+from vcavity.simulate.pipeline import incident_vector
 
 MODELS = ("vcavity", "smith", "smith-hc", "oren-nayar")
 DEFAULT_SIGNIFICANCE = 0.01

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 ANALOG = "analog"
 EXACT_F1 = "exact-f1"

@@ -18,9 +18,9 @@ from vcavity.analytic.cells import cell_average, cell_integrals, expected_counts
 from vcavity.analytic.oren_nayar import LambertModel
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.config import validate
-from vcavity.binning import square_to_hemisphere
-from vcavity.sensor import EqualAreaSensor
-from vcavity.simulate import incident_vector
+from vcavity.sensor.binning import square_to_hemisphere
+from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate.pipeline import incident_vector
 
 
 def model_of(masking="vcavity", n_nodes=64, **kw):

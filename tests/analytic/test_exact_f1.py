@@ -17,8 +17,8 @@ from vcavity.analytic import ModelNotApplicable
 from vcavity.analytic import exact_f1
 from vcavity.analytic.exact_f1 import CellModel, f1_cell_integrals
 from vcavity.config import validate
-from vcavity.sensor import EqualAreaSensor
-from vcavity.simulate import incident_vector
+from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate.pipeline import incident_vector
 
 MATERIALS = {
     "smooth": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vcavity.analytic.quadrature import subcell_quadrature
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 RESOLUTIONS = [1, 2, 57, 100]
 

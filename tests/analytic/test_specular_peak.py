@@ -19,8 +19,8 @@ from vcavity.analytic import SingleBounceModel
 from vcavity.analytic.cells import specular_integrals
 from vcavity.analytic.peak_cells import mirror_cell, peak_cells
 from vcavity.config import validate
-from vcavity.sensor import EqualAreaSensor
-from vcavity.simulate import incident_vector
+from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate.pipeline import incident_vector
 
 DIELECTRIC = {"facet": "interfaced_lambertian", "kd": 0.0, "eta": 1.5}
 

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity.io.table import open_table, write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 PATHS = 10**15
 ISOTROPIC = {"distribution": "beckmann", "facet": "interfaced_lambertian", "alpha_x": 0.3,

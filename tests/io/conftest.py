@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from vcavity.io.table import write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 MATERIAL = {"distribution": "beckmann", "facet": "interfaced_lambertian", "kd": 0.9,
             "eta": 1.5, "alpha_x": 0.3, "alpha_y": 0.5, "exponent": None}

@@ -18,7 +18,7 @@ import pytest
 import vcavity
 from vcavity.io import writer as writer_module
 from vcavity.io.table import FORMAT_VERSION, Table, TableFormatError, open_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 EPS = np.finfo(np.float64).eps
 

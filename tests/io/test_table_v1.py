@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from vcavity.io.table import TableFormatError, open_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 V1_TABLE = Path(__file__).parent / "data" / "table_v1.h5"
 SEED = 2**63 + 12345

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 from scipy import integrate, special, stats
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.microfacet import beckmann, common, ggx
 from vcavity.microfacet import student_t as st
 from vcavity.parameters import ParameterError, parse_parameters

@@ -1,8 +1,8 @@
 """Independent plain NumPy/SciPy references for judging the vcavity simulator.
 
 Nothing in this package imports vcavity's physics (``vcavity.microfacet``,
-``vcavity.facet``, ``vcavity.binning``, ``vcavity.kernels``, ``vcavity.analytic``,
-``vcavity.sensor``): every formula is written again from docs/physics.md and the
+``vcavity.facet``, ``vcavity.sensor.binning``, ``vcavity.kernels``, ``vcavity.analytic``,
+``vcavity.sensor.grid``): every formula is written again from docs/physics.md and the
 textbooks it cites, so a bug in the package's parameter packing, normal samplers,
 Fresnel code, sensor or walk cannot be shared by the reference that judges it.
 

@@ -1,6 +1,6 @@
 """The equal-area concentric sensor from its definition, in plain NumPy (physics.md sec. 6).
 
-No code of ``vcavity.sensor`` or ``vcavity.binning`` is used. Definitions:
+No code of ``vcavity.sensor.grid`` or ``vcavity.sensor.binning`` is used. Definitions:
 
 - the square ``[-1, 1]²`` is cut into ``N x N`` equal squares; cell ``c = iy N + ix``
   covers ``u ∈ [-1 + 2 ix/N, -1 + 2 (ix + 1)/N]``, ``v`` alike;

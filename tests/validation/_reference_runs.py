@@ -3,7 +3,7 @@
 Makes ``tests.reference`` importable (the repository root is appended to ``sys.path``;
 pytest runs with ``--import-mode=importlib``, which does not add it), runs small
 simulations through the public entry points (``vcavity.config.validate`` and
-``vcavity.simulate.simulate``), and turns counts plus reference probabilities into
+``vcavity.simulate.pipeline.simulate``), and turns counts plus reference probabilities into
 fail-safe verdicts (``vcavity.analytic.statistics``: Pearson chi-square with pooling
 and the albedo z-test, at a Sidak level).
 """
@@ -23,7 +23,7 @@ if _ROOT not in sys.path:
 
 from vcavity.analytic.statistics import albedo_z_test, pearson_chi_square, sidak_threshold  # noqa: E402
 from vcavity.config import validate  # noqa: E402
-from vcavity.simulate import simulate  # noqa: E402
+from vcavity.simulate.pipeline import simulate  # noqa: E402
 
 from tests.reference import materials as ref_materials  # noqa: E402
 

@@ -15,7 +15,7 @@ import pytest
 from scipy import stats
 
 from vcavity import config as config_mod
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 pytestmark = pytest.mark.slow
 

@@ -24,7 +24,7 @@ from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.statistics import albedo_z_test, pearson_chi_square, sidak_threshold
 from vcavity.config import validate
-from vcavity.simulate import incident_vector, simulate
+from vcavity.simulate.pipeline import incident_vector, simulate
 
 # (id, material, theta_i_deg, phi_i_deg)
 MATRIX = [

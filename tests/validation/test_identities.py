@@ -24,7 +24,7 @@ from vcavity.config import validate
 from vcavity.facet.fresnel import fresnel_dielectric, r_e
 from vcavity.microfacet import common
 from vcavity.microfacet import registry as distributions
-from vcavity.simulate import Scene, incident_vector, simulate
+from vcavity.simulate.pipeline import Scene, incident_vector, simulate
 
 
 def material(**kw):

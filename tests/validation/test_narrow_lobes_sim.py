@@ -13,7 +13,7 @@ from vcavity.compare import compare_table, format_report
 from vcavity.config import validate
 from vcavity.io.table import open_table, write_table
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 pytestmark = pytest.mark.slow
 

@@ -31,7 +31,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import validate
-from vcavity.simulate import incident_vector, simulate
+from vcavity.simulate.pipeline import incident_vector, simulate
 
 THETAS = (0.0, 45.0, 75.0)
 PATHS = 500_000

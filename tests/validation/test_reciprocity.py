@@ -35,8 +35,8 @@ import pytest
 from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.analytic.statistics import chi2_sf, sidak_threshold
 from vcavity.config import validate
-from vcavity.sensor import EqualAreaSensor
-from vcavity.simulate import simulate
+from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate.pipeline import simulate
 
 RESOLUTION = 6  # 36 cells of 0.175 sr
 N_SUB = 6

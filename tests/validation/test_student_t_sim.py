@@ -14,7 +14,7 @@ import pytest
 
 from vcavity.config import validate
 from vcavity.microfacet import registry
-from vcavity.simulate import simulate
+from vcavity.simulate.pipeline import simulate
 
 pytestmark = pytest.mark.skipif("student_t" not in registry.NAMES, reason="student_t not registered")
 

@@ -20,7 +20,7 @@ import math
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
 from vcavity.analytic.terms import VCAVITY, g2, smith_lambda

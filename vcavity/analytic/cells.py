@@ -29,7 +29,7 @@ from vcavity.analytic.specular_peak import (
     peak_integrals,
 )
 from vcavity.analytic.peak_cells import peak_cells
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 DEFAULT_BODY_SUB = 4
 DEFAULT_SUB = 8

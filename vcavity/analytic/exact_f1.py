@@ -34,7 +34,7 @@ from vcavity.analytic.specular_peak import (
     peak_integrals,
 )
 from vcavity.analytic.peak_cells import peak_cells
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 #: Starting body-integral control: half the compare default (64), a quarter of its cost;
 #: its error (about 4e-5 relative, O(n^-2) from the kinks of G2) is within the typical
@@ -72,7 +72,7 @@ def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
         Validated material (any registered distribution and facet).
     incident : array_like (3,)
         Unit direction toward the light, ``z > 0``.
-    sensor : vcavity.sensor.EqualAreaSensor
+    sensor : vcavity.sensor.grid.EqualAreaSensor
     tolerance : float or array_like (n_cells,)
         Absolute error allowed per cell, in the units of the integrals (dimensionless:
         a probability per path), >= 0; ``inf`` accepts the starting rules as they are.
@@ -119,7 +119,7 @@ def _tolerance_array(tolerance, sensor):
 class CellModel:
     """The model of :func:`f1_cell_integrals` kept with its rules, so that it can be refined
     further to a tighter tolerance without recomputing what is done (the exact-f1 estimator
-    refines the pre-run model once the counts are known, :mod:`vcavity.f1_models`).
+    refines the pre-run model once the counts are known, :mod:`vcavity.simulate.f1_models`).
 
     Parameters are those of :func:`f1_cell_integrals`; ``values`` and ``error`` (arrays of
     ``n_cells``) are its two results, updated by :meth:`refine_to`.

@@ -17,8 +17,8 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._jit import njit
-from vcavity.binning import direction_to_cell
+from vcavity._numba.jit import njit
+from vcavity.sensor.binning import direction_to_cell
 from vcavity.microfacet import registry as distributions
 
 _HALF_PI = 0.5 * math.pi

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity.sensor import EqualAreaSensor, square_to_hemisphere_array
+from vcavity.sensor.grid import EqualAreaSensor, square_to_hemisphere_array
 
 
 def subcell_quadrature(sensor: EqualAreaSensor, n_sub, cells=None):

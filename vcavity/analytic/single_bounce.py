@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.analytic.terms import (
     MASKING_CODES,
     VCAVITY,

@@ -14,7 +14,7 @@ sampling map ``(u1, u2) -> m`` of pdf ``D(m)(m.n)`` (W eq. 14 and 24):
 No D is evaluated, so the integrand stays bounded (``<= 2 F`` for V-cavity masking) for
 any roughness down to 1e-300. Each ray ``u2 = const`` (``m`` tilts away from ``n`` as
 ``u1`` grows) is cut where ``o`` crosses a cell edge, the horizon, or a kink of G2; those
-points are found by bisection on the sensor's own binning (:func:`vcavity.binning.direction_to_cell`),
+points are found by bisection on the sensor's own binning (:func:`vcavity.sensor.binning.direction_to_cell`),
 so the cell a piece belongs to is the cell the simulator counts it in. Each piece is a
 Gauss-Legendre rule in ``τ`` with ``u1 = sin^2(π τ / 2)``, which removes the square-root
 behaviour of ``m`` at both ends of ``u1``. Per cell, the integrand over ``u2`` is smooth
@@ -34,10 +34,10 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.analytic.peak_cells import _MAX_STEP, _STEP_CELLS, corner_u2
 from vcavity.analytic.terms import SMITH, VCAVITY, smith_lambda
-from vcavity.binning import direction_to_cell, square_to_hemisphere
+from vcavity.sensor.binning import direction_to_cell, square_to_hemisphere
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import g2_smith_height_correlated, g2_smith_separable
@@ -297,7 +297,7 @@ def _tan_stop(incident, sensor, cells):
     """1.5 x the largest ``tan θ_h`` at the nodes and corners of ``cells``: beyond it a ray
     (``tan θ_m`` grows along it) reaches none of them."""
     from vcavity.analytic.quadrature import subcell_quadrature
-    from vcavity.sensor import square_to_hemisphere_array
+    from vcavity.sensor.grid import square_to_hemisphere_array
 
     directions, _ = subcell_quadrature(sensor, 4, cells=cells)
     u, v = _corners(cells, sensor.resolution)

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.microfacet import beckmann
 from vcavity.microfacet import registry as distributions

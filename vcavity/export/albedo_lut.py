@@ -31,7 +31,7 @@ import numpy as np
 from vcavity import __version__
 from vcavity.export import ExportRefused, ExportRequest
 from vcavity.plots.data import order_name
-from vcavity.sweep_albedo import albedo, albedo_stderr, order_position, stderr_rule
+from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 NAME = "albedo-lut"
 SOURCE = "sweep"

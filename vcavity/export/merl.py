@@ -101,7 +101,7 @@ def half_diff_to_directions(theta_h, theta_d, phi_d):
 
 def _check(table, request: ExportRequest) -> None:
     """Refuse what a MERL file cannot represent (ExportRefused, one line)."""
-    from vcavity.brdf import material_is_isotropic
+    from vcavity.brdf.table_brdf import material_is_isotropic
 
     shown = str(table.path)
     if not material_is_isotropic(table.material):

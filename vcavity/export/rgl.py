@@ -121,7 +121,7 @@ def build_fields(table, request, colour_field: str, wavelengths=None) -> dict:
         An order the table lacks or that is zero everywhere; azimuths of an anisotropic
         table a reader cannot use (:func:`file_azimuths`).
     """
-    from vcavity.brdf import material_is_isotropic
+    from vcavity.brdf.table_brdf import material_is_isotropic
 
     brdf, _ = order_data(table, request)
     if not np.any(brdf > 0):

@@ -1,6 +1,6 @@
 """Pieces every facet model shares: event outcomes and specular reflection (physics.md sec. 4-5)."""
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 #: Outcomes of a facet event: the path goes on with a new direction, or it ends.
 SCATTERED = 0

@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 # Taylor coefficients c_1..c_40 of the regular part of Molenaar's r_e (IL eq. 10),
 #   R(eta) = 1/2 + (eta-1)(3eta+1)/(6(eta+1)^2) - 2eta^3(eta^2+2eta-1)/((eta^2+1)(eta^4-1))

@@ -29,7 +29,7 @@ import math
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.facet.common import ABSORBED, SCATTERED, reflect
 from vcavity.facet.fresnel import (
     emergence_probability,

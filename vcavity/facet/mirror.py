@@ -7,7 +7,7 @@ Implements the facet interface of :mod:`vcavity.facet.registry`.
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 from vcavity.facet.common import SCATTERED, reflect
 
 NAME = "mirror"

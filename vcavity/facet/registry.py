@@ -20,7 +20,7 @@ Interface of a facet module
   ``has_specular(values) -> bool``, ``body_factor(values) -> K``.
 
 ``kind`` is the position in :data:`FACET_MODULES`; the jitted operations need it as a
-compile-time constant (see :mod:`vcavity._dispatch`).
+compile-time constant (see :mod:`vcavity._numba.dispatch`).
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from vcavity._dispatch import dispatcher
+from vcavity._numba.dispatch import dispatcher
 from vcavity.parameters import accepted_keys, canonical_keys, parse_parameters
 
 #: Registered facet models, by module name under ``vcavity.facet``: one line each.

@@ -33,7 +33,7 @@ from vcavity.io.schema import (
     V3_ADDED_DATASETS,
 )
 from vcavity.io.writer import write_table
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 
 class TableFormatError(ValueError):
@@ -147,30 +147,30 @@ class Table:
             raise ValueError(f"order {k} is not in table {self.path} (orders present: {present})")
         return int(hits[0])
 
-    # The renderer API (docs/table-api.md) lives in vcavity.brdf (plain NumPy, no Numba);
+    # The renderer API (docs/table-api.md) lives in vcavity.brdf.table_brdf (plain NumPy, no Numba);
     # imported on first use so that reading a table needs none of it.
     @cached_property
     def interpolant(self):
-        """The table as a continuous BRDF, :class:`vcavity.brdf.TableBRDF` (built once)."""
-        from vcavity.brdf import TableBRDF
+        """The table as a continuous BRDF, :class:`vcavity.brdf.table_brdf.TableBRDF` (built once)."""
+        from vcavity.brdf.table_brdf import TableBRDF
 
         return TableBRDF(self)
 
     def eval(self, wi, wo, order=0):
-        """Interpolated BRDF f(wi, wo) in 1/sr; see :meth:`vcavity.brdf.TableBRDF.eval`."""
+        """Interpolated BRDF f(wi, wo) in 1/sr; see :meth:`vcavity.brdf.table_brdf.TableBRDF.eval`."""
         return self.interpolant.eval(wi, wo, order)
 
     def pdf(self, wi, wo, order=0):
-        """Density of :meth:`sample` in 1/sr; see :meth:`vcavity.brdf.TableBRDF.pdf`."""
+        """Density of :meth:`sample` in 1/sr; see :meth:`vcavity.brdf.table_brdf.TableBRDF.pdf`."""
         return self.interpolant.pdf(wi, wo, order)
 
     def sample(self, wi, u1, u2, order=0):
-        """``(wo, weight, pdf)`` from the table; see :meth:`vcavity.brdf.TableBRDF.sample`."""
+        """``(wo, weight, pdf)`` from the table; see :meth:`vcavity.brdf.table_brdf.TableBRDF.sample`."""
         return self.interpolant.sample(wi, u1, u2, order)
 
     def albedo_at(self, wi, order=0):
         """Directional albedo at any ``wi`` (``self.albedo`` is the stored (n_i, n_k) array);
-        see :meth:`vcavity.brdf.TableBRDF.albedo`."""
+        see :meth:`vcavity.brdf.table_brdf.TableBRDF.albedo`."""
         return self.interpolant.albedo(wi, order)
 
 

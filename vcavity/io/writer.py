@@ -303,12 +303,12 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
 
 
 def write_result(path, result, config, cancelled=None) -> None:
-    """Write the table of a finished run (``vcavity.simulate.RunResult``) atomically.
+    """Write the table of a finished run (``vcavity.simulate.pipeline.RunResult``) atomically.
 
     Parameters
     ----------
     path : str or os.PathLike
-    result : vcavity.simulate.RunResult
+    result : vcavity.simulate.pipeline.RunResult
         Counts, bookkeeping and the estimator's tabulated values.
     config : vcavity.config.RunConfig
         The run's validated configuration (stored in full, with the seed).

@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 OPENING = 0
 LEFT = 1

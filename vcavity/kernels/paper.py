@@ -26,8 +26,8 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._jit import njit
-from vcavity.binning import bin_block
+from vcavity._numba.jit import njit
+from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface

@@ -18,7 +18,7 @@ per distribution x facet variant, :func:`variants`): isotropic roughness takes a
 stretch-free branch inside the distributions' ``sample_disk`` (a loop-invariant test, free
 when predicted); ``max_bounces = 1`` (f1 only) ends a path at its second wall hit before
 any event; ``first_binned_order = 2`` skips binning the first-order exits. Exits are
-binned a block at a time (:func:`vcavity.binning.bin_block`, vectorised), not one by one.
+binned a block at a time (:func:`vcavity.sensor.binning.bin_block`, vectorised), not one by one.
 Throughput and compile times: docs/performance.md.
 """
 
@@ -31,8 +31,8 @@ from pathlib import Path
 import numpy as np
 from numba import prange
 
-from vcavity._jit import njit
-from vcavity.binning import bin_block
+from vcavity._numba.jit import njit
+from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
@@ -157,10 +157,10 @@ def _source_tag() -> int:
     """
     root = Path(__file__).resolve().parent.parent
     digest = hashlib.blake2b(digest_size=8)
-    for sub in ("kernels", "facet", "microfacet"):
+    for sub in ("kernels", "facet", "microfacet", "_numba"):
         for path in sorted((root / sub).glob("*.py")):
             digest.update(path.read_bytes())
-    for name in ("binning.py", "rng.py", "_jit.py", "_dispatch.py"):
+    for name in ("sensor/binning.py", "rng.py"):
         digest.update((root / name).read_bytes())
     return int.from_bytes(digest.digest(), "little") >> 1
 

@@ -16,7 +16,7 @@ import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle, ratio_squared, stretched_slope
 from vcavity.parameters import Roughness
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 NAME = "beckmann"
 DESCRIPTION = "Gaussian slopes, exp(-tan^2 theta_m / alpha^2) (W eq. 25, H eq. 82)"

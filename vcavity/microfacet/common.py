@@ -9,7 +9,7 @@ distribution through its ``Lambda`` (each distribution module provides
 ``smith_lambda``); the Smith forms below take the Lambda values and leave the
 sidedness factors ``chi+(v.m)`` to the caller.
 
-Every function here is jitted (``vcavity._jit.njit(cache=True)``); vectorised
+Every function here is jitted (``vcavity._numba.jit.njit(cache=True)``); vectorised
 evaluation of the distributions is in :mod:`vcavity.microfacet.registry`.
 """
 
@@ -17,7 +17,7 @@ import math
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 #: Largest ``tan theta_m`` a sampler returns. Larger tangents (Beckmann/GGX with
 #: ``alpha`` near the float64 maximum) are clamped: the groove is vertical to within

@@ -37,7 +37,7 @@ import numpy as np
 
 from vcavity.microfacet.common import normal_from_slope_angle
 from vcavity.parameters import Number
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 NAME = "gaussian"
 DESCRIPTION = "Oren-Nayar's Gaussian in theta_m, exp(-theta_m^2/(2 sigma^2))/cos theta_m (IL eq. 13)"

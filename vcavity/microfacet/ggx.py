@@ -16,7 +16,7 @@ import numpy as np
 
 from vcavity.microfacet.common import log_ratio_squared, normal_from_slope_angle, stretched_slope
 from vcavity.parameters import Roughness
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 NAME = "ggx"
 DESCRIPTION = "Trowbridge-Reitz: slopes with a 1/(1 + tan^2/alpha^2)^2 tail (W eq. 33, H eq. 85)"

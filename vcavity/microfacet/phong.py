@@ -23,7 +23,7 @@ import numpy as np
 from vcavity.microfacet.beckmann import smith_lambda_of_a
 from vcavity.microfacet.common import normal_from_slope_angle
 from vcavity.parameters import Number
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 NAME = "phong"
 DESCRIPTION = "D proportional to cos^exponent theta_m, isotropic (W eq. 30)"

@@ -30,7 +30,7 @@ Dispatch
 ``kind`` is a distribution's position in :data:`DISTRIBUTION_MODULES`. In jitted code
 the operations below resolve a compile-time constant ``kind`` (a closure integer, as
 the kernel factory uses) to the module's own function with no branch, and a run-time
-``kind`` to a branch over the registered modules (see :mod:`vcavity._dispatch`). From
+``kind`` to a branch over the registered modules (see :mod:`vcavity._numba.dispatch`). From
 Python they call the module directly.
 """
 
@@ -41,8 +41,8 @@ from typing import Any, Mapping
 
 import numpy as np
 
-from vcavity._dispatch import check_kind, dispatcher
-from vcavity._jit import njit
+from vcavity._numba.dispatch import check_kind, dispatcher
+from vcavity._numba.jit import njit
 from vcavity.parameters import ParameterError, accepted_keys, canonical_keys, parse_parameters
 
 #: Registered distributions, by module name under ``vcavity.microfacet``: one line each.

@@ -43,7 +43,7 @@ import numpy as np
 
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
 from vcavity.parameters import Number, Roughness
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 NAME = "student_t"
 DESCRIPTION = ("STD, Student-t slopes: D ~ 1/(1 + tan^2/((gamma-1) alpha^2))^gamma, GGX at gamma 2, "

@@ -14,8 +14,8 @@ from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 
 from vcavity.plots.data import SLICE_MODELS, order_name
-from vcavity.report import format_material
-from vcavity.sensor import square_to_hemisphere_array
+from vcavity.io.summary import format_material
+from vcavity.sensor.grid import square_to_hemisphere_array
 
 #: Colour of each order (f_inf black, then matplotlib's cycle), and of the models.
 ORDER_COLOURS = {0: "black", 1: "tab:blue", 2: "tab:orange", 3: "tab:green", 4: "tab:olive"}

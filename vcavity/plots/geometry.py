@@ -32,7 +32,7 @@ BISECTIONS = 30
 def hemisphere_to_square(directions):
     """Sensor square coordinates ``(u, v)`` of upper-hemisphere directions, vectorised.
 
-    The inverse of :func:`vcavity.sensor.square_to_hemisphere_array` as physics.md sec. 6
+    The inverse of :func:`vcavity.sensor.grid.square_to_hemisphere_array` as physics.md sec. 6
     ("Binning") states it: ``r^2 = (x^2 + y^2)/(1 + z)``; the larger of ``|x|, |y|``
     picks the wedge, the coordinate along it is ``±r`` and the other
     ``±r (4/pi) atan(ratio)``. Written here in NumPy so plotting needs no JIT; ties and

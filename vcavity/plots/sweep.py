@@ -3,7 +3,7 @@
 One panel per incident direction (``theta_i_deg``, and ``phi_i_deg`` when swept), one
 colour per combination of the other material axes (eta, kd, distribution, ...), one line
 style per bounce order (f1 and f_inf by default), error bars of ±2 standard errors where
-the sweep's estimator gives them (:mod:`vcavity.sweep_albedo`). The roughness axis is the
+the sweep's estimator gives them (:mod:`vcavity.sweep.albedo`). The roughness axis is the
 first of :data:`ROUGHNESS_AXES` the sweep varies (else the first it has). Points not done
 are gaps. :func:`sweep_data` computes the numbers without matplotlib; :func:`render_sweep`
 draws them and returns them.
@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vcavity.plots.data import order_name
-from vcavity.sweep_albedo import albedo, albedo_stderr, order_position, stderr_rule
+from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 #: Axes that are a roughness, in the order one is picked as the x axis.
 ROUGHNESS_AXES = ("alpha", "alpha_x", "alpha_y", "sigma", "exponent")
@@ -170,7 +170,7 @@ def sweep_data(sweep, theta_indices, orders) -> SweepPlotData:
 
 def _shared_text(sweep, rough_name) -> str:
     """What every line shares: /material, the single-valued axes, the scalar incidence."""
-    from vcavity.report import format_material
+    from vcavity.io.summary import format_material
 
     shared = dict(sweep.material)
     shared.update({a.name: a.values[0] for a in sweep.axes if len(a.values) == 1

@@ -14,7 +14,7 @@ exits (order 0) + absorbed + truncated + degenerate = paths.
 import numpy as np
 
 import vcavity.io.table as table_module
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 assert table_module.FORMAT_VERSION == 1, f"not the v1 writer: {table_module.__file__}"
 

@@ -22,7 +22,7 @@ Sampling draws ``(u, v)`` from ``G``, the bilinear interpolant of ``brdf[c] Ω�
 patches, mixed over the serving incident rows in proportion to ``w_j ∫∫ G_j du dv``; the map
 is equal-area, ``dω = (π/2) du dv``. :meth:`TableBRDF.pdf` is that density exactly,
 continuous, and positive wherever :meth:`TableBRDF.eval` is (below the horizon both are 0).
-Which rows serve an incident direction is :mod:`vcavity.brdf_incidence`.
+Which rows serve an incident direction is :mod:`vcavity.brdf.incidence`.
 
 Plain NumPy: nothing here imports Numba (reading and evaluating a table compiles nothing).
 """
@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity.brdf_incidence import MAX_PHI_GAP, DirectionNotTabulated, IncidentRows
-from vcavity.sensor import square_to_hemisphere_array
+from vcavity.brdf.incidence import MAX_PHI_GAP, DirectionNotTabulated, IncidentRows
+from vcavity.sensor.grid import square_to_hemisphere_array
 
 _FOUR_OVER_PI = 4.0 / np.pi
 
@@ -40,7 +40,7 @@ _FOUR_OVER_PI = 4.0 / np.pi
 def hemisphere_to_square_array(directions):
     """Inverse concentric map of unit directions to the square ``[-1, 1]^2``, vectorised.
 
-    The NumPy counterpart of :func:`vcavity.binning.hemisphere_to_square` (same branches:
+    The NumPy counterpart of :func:`vcavity.sensor.binning.hemisphere_to_square` (same branches:
     ``r^2 = (x^2 + y^2)/(1 + z)``, the larger of ``|x|, |y|`` picks the wedge, the other
     coordinate is ``r (4/π) atan(ratio)``; physics.md sec. 6).
 

@@ -3,7 +3,7 @@
 Jitted scalar functions: the Shirley-Chiu concentric map of the square ``[-1, 1]^2`` to
 the unit disk lifted to the upper hemisphere (:func:`square_to_hemisphere`), its inverse
 (:func:`hemisphere_to_square`) and :func:`direction_to_cell`, the O(1) binning of an exit
-direction. The kernel inlines these; :class:`vcavity.sensor.EqualAreaSensor` (plain NumPy)
+direction. The kernel inlines these; :class:`vcavity.sensor.grid.EqualAreaSensor` (plain NumPy)
 describes the cells and bins through :func:`directions_to_cells` with exactly this code.
 Cell ``c = iy * N + ix`` covers ``u`` in ``[-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and ``v`` in
 ``[-1 + 2 iy/N, -1 + 2 (iy+1)/N]``.
@@ -11,7 +11,7 @@ Cell ``c = iy * N + ix`` covers ``u`` in ``[-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and 
 
 import numpy as np
 
-from vcavity._jit import njit
+from vcavity._numba.jit import njit
 
 QUARTER_PI = 0.25 * np.pi
 FOUR_OVER_PI = 4.0 / np.pi

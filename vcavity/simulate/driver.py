@@ -2,7 +2,7 @@
 
 ``vcavity run`` calls :func:`run_to_table` once every input check has passed. It never
 loses finished work: the run state is saved atomically to ``<OUT>.checkpoint`` every
-``checkpoint_every_s`` seconds (``vcavity.checkpoint``), Ctrl-C (SIGINT) is turned into a
+``checkpoint_every_s`` seconds (``vcavity.io.checkpoint``), Ctrl-C (SIGINT) is turned into a
 request to stop at the next chunk boundary, which saves a checkpoint, prints one line and
 returns exit status 130, and the checkpoint is removed only once the table is written.
 ``--resume`` continues from the checkpoint; the final table is bitwise identical to an
@@ -15,7 +15,7 @@ from __future__ import annotations
 import sys
 from pathlib import Path
 
-from vcavity import checkpoint
+from vcavity.io import checkpoint
 
 EXIT_OK = 0
 EXIT_BAD_INPUT = 2
@@ -31,7 +31,7 @@ def load_state(simulation, output: Path, resume: bool):
 
     Raises
     ------
-    vcavity.checkpoint.CheckpointError
+    vcavity.io.checkpoint.CheckpointError
         Unusable checkpoint with ``resume`` (one line), or an existing checkpoint of an
         unfinished run without ``resume``.
     """
@@ -56,13 +56,13 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
     """Run ``simulation`` (from ``state``) and write its table with ``write(result, cancelled)``.
 
     Returns ``(exit_status, result)``; ``result`` is None when interrupted. Ctrl-C is
-    deferred (:class:`vcavity.interrupts.DeferredInterrupt`): between chunks it stops the
+    deferred (:class:`vcavity.simulate.interrupts.DeferredInterrupt`): between chunks it stops the
     run with a checkpoint; during the table write it cancels the rename (the old table
     stays) and the checkpoint, saved with the finished state just before, keeps the run:
     ``--resume`` then only writes the table.
     """
-    from vcavity.interrupts import DeferredInterrupt
-    from vcavity.simulate import RunInterrupted
+    from vcavity.simulate.interrupts import DeferredInterrupt
+    from vcavity.simulate.pipeline import RunInterrupted
 
     path = checkpoint.checkpoint_path(output)
     config_dict = simulation.config.to_dict()

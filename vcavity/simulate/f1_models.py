@@ -32,7 +32,7 @@ class F1Models:
     Parameters
     ----------
     config : vcavity.config.RunConfig
-    sensor : vcavity.sensor.EqualAreaSensor
+    sensor : vcavity.sensor.grid.EqualAreaSensor
     incident : callable
         ``incident(theta_i, phi_i) -> unit vector`` toward the light.
 

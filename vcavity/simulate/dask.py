@@ -1,14 +1,14 @@
 """Work units on a Dask cluster (the optional extra ``vcavity[distributed]``; docs/distributed.md).
 
 A run is cut into work units (an incident direction, a first block, a number of blocks:
-:class:`vcavity.simulate.WorkUnit`); each unit is a pure function of the configuration,
+:class:`vcavity.simulate.pipeline.WorkUnit`); each unit is a pure function of the configuration,
 the seed and its blocks, returning integer tallies. :class:`DaskExecutor` sends units to
 Dask workers as tasks and hands their results back **in the order of the units**, so
 the client merges them exactly as a local run does: the table is bitwise identical to a
 local run's, whatever the number of workers, and a task lost with a killed worker is
 simply computed again (Dask reschedules it; ``retries`` covers errors on the way).
 
-Each worker process builds the :class:`~vcavity.simulate.Simulation` of a configuration
+Each worker process builds the :class:`~vcavity.simulate.pipeline.Simulation` of a configuration
 once (its kernel compiled or loaded from the worker's Numba cache) and keeps it for the
 next units of the same run.
 """
@@ -28,7 +28,7 @@ def _execute_remote(config_json: str, threads: int, unit):
     simulation = _SIMULATIONS.get(config_json)
     if simulation is None:
         from vcavity import config as config_mod
-        from vcavity.simulate import Simulation
+        from vcavity.simulate.pipeline import Simulation
 
         raw = json.loads(config_json)
         simulation = Simulation(config_mod.validate(raw, source="<dask worker>"), threads=threads)

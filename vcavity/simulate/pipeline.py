@@ -16,18 +16,18 @@ from typing import Callable
 import numba
 import numpy as np
 
-from vcavity.checkpoint import RunState
+from vcavity.io.checkpoint import RunState
 from vcavity.config import Material, RunConfig
 from vcavity.estimators import (ANALOG, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
                                 order_source, relative_error)
-from vcavity.f1_models import F1Models
+from vcavity.simulate.f1_models import F1Models
 from vcavity.facet import registry as facets
 from vcavity.kernels import paper
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED, get_kernel)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 #: Default paths per kernel call: large enough to amortise the call, small enough for a
 #: lively progress bar (about a quarter of a second on 2 cores).
@@ -171,7 +171,7 @@ class Simulation:
 
     def prepare_models(self) -> float:
         """Exact-f1: every direction's f1 model before any path is traced
-        (:meth:`vcavity.f1_models.F1Models.prepare`); 0 s for the other estimators.
+        (:meth:`vcavity.simulate.f1_models.F1Models.prepare`); 0 s for the other estimators.
 
         Raises
         ------
@@ -268,7 +268,7 @@ class Simulation:
             :class:`RunInterrupted` carrying the state (all finished chunks in it).
         executor : callable, optional
             ``executor(simulation, units)`` -> iterable of ``(unit, execute(unit))`` in the
-            order of ``units`` (an iterator, to be consumed lazily) (e.g. :class:`vcavity.distributed.DaskExecutor`); default:
+            order of ``units`` (an iterator, to be consumed lazily) (e.g. :class:`vcavity.simulate.dask.DaskExecutor`); default:
             execute them here, one after the other.
         """
         run_units = executor if executor is not None else _execute_here

@@ -14,7 +14,7 @@ Cell ``c = iy * N + ix`` covers ``u ∈ [-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and
 This module describes the cells (bounds, centres and their angles, solid angles,
 exact projected solid angles) in plain NumPy and imports no Numba, so reading a table
 needs no JIT compilation. Only :meth:`EqualAreaSensor.cell_index` bins, and it does so
-with the simulation kernel's own jitted code (:mod:`vcavity.binning`, imported when
+with the simulation kernel's own jitted code (:mod:`vcavity.sensor.binning`, imported when
 first called), so a direction lands in exactly the cell the kernel counted it in.
 """
 
@@ -28,7 +28,7 @@ _QUARTER_PI = 0.25 * np.pi
 def square_to_hemisphere_array(u, v):
     """Concentric map of square points to upper-hemisphere unit directions, vectorised.
 
-    The NumPy counterpart of :func:`vcavity.binning.square_to_hemisphere` (same
+    The NumPy counterpart of :func:`vcavity.sensor.binning.square_to_hemisphere` (same
     branches, same formulas; results agree to rounding, about 1e-16): the
     Shirley-Chiu concentric map to the disk followed by the lift ``z = 1 - r^2``,
     ``(x, y) = (d_x, d_y) sqrt(2 - r^2)`` (physics.md section 6).
@@ -191,7 +191,7 @@ class EqualAreaSensor:
     def cell_index(self, directions):
         """Cell index of each direction, binned exactly as the simulation kernel does.
 
-        Runs the kernel's jitted binning (:func:`vcavity.binning.directions_to_cells`;
+        Runs the kernel's jitted binning (:func:`vcavity.sensor.binning.directions_to_cells`;
         compiled, or loaded from Numba's cache, on first use).
 
         Parameters
@@ -208,7 +208,7 @@ class EqualAreaSensor:
         if directions.ndim < 1 or directions.shape[-1] != 3:
             raise ValueError(f"directions must have shape (..., 3), got {directions.shape}")
         flat = np.ascontiguousarray(directions.reshape(-1, 3))
-        from vcavity.binning import directions_to_cells  # the kernel's code: imports Numba
+        from vcavity.sensor.binning import directions_to_cells  # the kernel's code: imports Numba
 
         return directions_to_cells(flat, self.resolution).reshape(directions.shape[:-1])
 

@@ -1,6 +1,6 @@
 """Running a sweep point by point, writing the sweep file after each, and resuming it.
 
-Each point is one run (:class:`vcavity.simulate.Simulation`, the same pipeline as
+Each point is one run (:class:`vcavity.simulate.pipeline.Simulation`, the same pipeline as
 ``vcavity run``: plan, execute work units locally or on Dask, merge in block order). When
 a point finishes, the whole sweep file is rewritten atomically
 (:func:`vcavity.io.sweep_table.write_sweep`), so a kill at any moment loses at most the
@@ -16,13 +16,13 @@ from typing import Callable
 
 import numpy as np
 
-from vcavity import preflight
+from vcavity.io import preflight
 from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
-from vcavity.sweep import Point, Sweep, SweepError
+from vcavity.sweep.spec import Point, Sweep, SweepError
 
 
 def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
-    """Store a finished point's :class:`~vcavity.simulate.RunResult` in ``data`` (as
+    """Store a finished point's :class:`~vcavity.simulate.pipeline.RunResult` in ``data`` (as
     :func:`vcavity.io.writer.write_result` stores a run: fractions of paths, or of
     energy for the weighted estimator)."""
     paths = np.asarray(result.paths, np.float64)
@@ -79,12 +79,12 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
                 resume: bool = False, threads: int | None = None):
     """Every check of a sweep that can fail, before anything is traced.
 
-    Returns ``(output, data, note)``: the :class:`~vcavity.preflight.Output`, the sweep
+    Returns ``(output, data, note)``: the :class:`~vcavity.io.preflight.Output`, the sweep
     state to start from (a resumed file's, or empty) and a note for the user (or None).
 
     Raises
     ------
-    SweepError, vcavity.preflight.PreflightError
+    SweepError, vcavity.io.preflight.PreflightError
         One line naming the flag or field.
     """
     import numba
@@ -139,9 +139,9 @@ def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, ch
         The state to start from (:meth:`Sweep.new_data` or :func:`resume_data`); updated
         in place, so after an interruption it holds every finished point.
     threads, chunk_blocks : int, optional
-        As for :class:`~vcavity.simulate.Simulation`; neither changes the result.
+        As for :class:`~vcavity.simulate.pipeline.Simulation`; neither changes the result.
     executor : callable, optional
-        Executor of each point's work units (e.g. :class:`vcavity.distributed.DaskExecutor`).
+        Executor of each point's work units (e.g. :class:`vcavity.simulate.dask.DaskExecutor`).
     on_progress : callable, optional
         ``on_progress(paths_now, relative_error)`` after each chunk, as in a run.
     on_point : callable, optional
@@ -156,7 +156,7 @@ def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, ch
     OSError
         Writing the file failed (the previous file is intact).
     """
-    from vcavity.simulate import Simulation
+    from vcavity.simulate.pipeline import Simulation
 
     for point in sweep.points:
         if data.data["done"][point.index]:

@@ -21,7 +21,7 @@ their angles as in any run (:func:`vcavity.rng.direction_key`), so adding, remov
 reordering axis values never changes the other points' counts, and a point's counts
 equal those of a plain run of its config.
 
-Running and resuming are in :mod:`vcavity.sweep_run`.
+Running and resuming are in :mod:`vcavity.sweep.run`.
 """
 
 from __future__ import annotations
@@ -44,7 +44,7 @@ from vcavity.facet import registry as facets
 from vcavity.io.sweep_table import INCIDENCE_AXES, GridAxis, SweepData
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE
-from vcavity.sensor import EqualAreaSensor
+from vcavity.sensor.grid import EqualAreaSensor
 
 #: Most grid positions (points x directions) of one sweep: validation stays within seconds.
 MAX_GRID_POINTS = 100_000

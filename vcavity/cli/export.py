@@ -51,7 +51,7 @@ def cmd_export(args) -> int:
     import os
     from pathlib import Path
 
-    from vcavity import preflight
+    from vcavity.io import preflight
     from vcavity.cli import EXIT_OK, _error
     from vcavity.export import ExportRefused, ExportRequest, export, format_module
     from vcavity.io.sweep_table import is_sweep_file

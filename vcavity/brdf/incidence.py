@@ -1,6 +1,6 @@
 """Which tabulated incident directions serve a query direction, with which weights.
 
-Part of the renderer view of a table (:mod:`vcavity.brdf`, docs/table-api.md). A table's
+Part of the renderer view of a table (:mod:`vcavity.brdf.table_brdf`, docs/table-api.md). A table's
 rows are its incident directions ``(theta_i[j], phi_i[j])``. For a query ``wi``:
 
 - isotropic tables: linear in ``theta_i`` between the two bracketing tabulated values

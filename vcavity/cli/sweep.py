@@ -59,15 +59,15 @@ def cmd_sweep(args) -> int:
     from vcavity.cli import EXIT_INTERRUPTED, _error
 
     if args.dask is not None:
-        from vcavity.distributed import parse_address
+        from vcavity.simulate.dask import parse_address
 
         try:
             parse_address(args.dask)
         except ValueError as exc:
             return _error(str(exc))
-    from vcavity import sweep as sweep_mod
-    from vcavity import sweep_run
-    from vcavity.preflight import PreflightError
+    from vcavity.sweep import spec as sweep_mod
+    from vcavity.sweep import run as sweep_run
+    from vcavity.io.preflight import PreflightError
 
     try:
         spec = sweep_mod.load(args.sweep)
@@ -79,7 +79,7 @@ def cmd_sweep(args) -> int:
         print(f"vcavity: {note}", file=sys.stderr)
     executor = None
     if args.dask is not None:
-        from vcavity.distributed import DaskExecutor
+        from vcavity.simulate.dask import DaskExecutor
 
         try:
             executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
@@ -101,12 +101,12 @@ def cmd_sweep(args) -> int:
 
 
 def _trace(args, spec, output, data, executor, total) -> int:
-    from vcavity import sweep_run
+    from vcavity.sweep import run as sweep_run
     from vcavity.analytic.single_bounce import ModelNotApplicable
     from vcavity.cli import EXIT_OK, _error
-    from vcavity.interrupts import DeferredInterrupt
+    from vcavity.simulate.interrupts import DeferredInterrupt
     from vcavity.io.sweep_table import open_sweep
-    from vcavity.sweep_report import format_sweep_summary
+    from vcavity.io.sweep_summary import format_sweep_summary
 
     # Ctrl-C only sets a flag, checked between kernel calls and after each point's write:
     # a point being written is completed, the running one is dropped.
@@ -145,7 +145,7 @@ def cmd_sweep_info(args) -> int:
     """``vcavity info`` on a sweep file."""
     from vcavity.cli import EXIT_OK, _error
     from vcavity.io.sweep_table import SweepFormatError, open_sweep
-    from vcavity.sweep_report import format_sweep_summary
+    from vcavity.io.sweep_summary import format_sweep_summary
 
     try:
         sweep = open_sweep(args.table)

@@ -15,7 +15,7 @@ import sys
 
 # Argument types, the one-line error format and the run help live in cli_args.py; the
 # names are imported here too because cli_sweep.py uses them from vcavity.cli.
-from vcavity.cli_args import EXIT_BAD_INPUT, _PATHS_MAX, _count, _fraction, _Parser, _seed, run_epilog
+from vcavity.cli.common import EXIT_BAD_INPUT, _PATHS_MAX, _count, _fraction, _Parser, _seed, run_epilog
 
 EXIT_OK = 0
 EXIT_INTERRUPTED = 130
@@ -98,13 +98,13 @@ def build_parser() -> argparse.ArgumentParser:
                          "at most 1024: the cost grows as N^2 per cell)")
     compare.add_argument("--lambda-fit", action="store_true",
                          help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
-    from vcavity.cli_plot import add_plot_parser  # `vcavity plot` lives in cli_plot.py
+    from vcavity.cli.plot import add_plot_parser  # `vcavity plot` lives in cli_plot.py
 
     add_plot_parser(sub)
-    from vcavity.cli_sweep import add_sweep_parser  # `vcavity sweep` lives in cli_sweep.py
+    from vcavity.cli.sweep import add_sweep_parser  # `vcavity sweep` lives in cli_sweep.py
 
     add_sweep_parser(sub)
-    from vcavity.cli_export import add_export_parser  # `vcavity export` lives in cli_export.py
+    from vcavity.cli.export import add_export_parser  # `vcavity export` lives in cli_export.py
 
     add_export_parser(sub)
     return parser
@@ -126,17 +126,17 @@ def _error(message: str) -> int:
 
 
 def _preflight(args, cfg):
-    """Every check of a run that can fail, before compiling or tracing (vcavity/preflight.py).
+    """Every check of a run that can fail, before compiling or tracing (vcavity/io/preflight.py).
 
-    Returns the :class:`~vcavity.preflight.Output`; raises ``PreflightError`` (one line).
+    Returns the :class:`~vcavity.io.preflight.Output`; raises ``PreflightError`` (one line).
     """
     import numba
 
-    from vcavity import preflight
-    from vcavity.sensor import EqualAreaSensor
+    from vcavity.io import preflight
+    from vcavity.sensor.grid import EqualAreaSensor
 
     out = preflight.resolve_output(args.output, cfg.output, args.config)
-    from vcavity.checkpoint import checkpoint_path
+    from vcavity.io.checkpoint import checkpoint_path
 
     resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
     preflight.check_output(out, args.config, args.overwrite or resuming)
@@ -185,7 +185,7 @@ def _cmd_run(args) -> int:
                 raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
     except config_mod.ConfigError as exc:
         return _error(str(exc))
-    from vcavity.preflight import PreflightError
+    from vcavity.io.preflight import PreflightError
 
     try:
         output = _preflight(args, cfg)
@@ -194,13 +194,14 @@ def _cmd_run(args) -> int:
     out = output.path
 
     from vcavity.io.writer import write_result
-    from vcavity.report import format_summary
-    from vcavity.simulate import Simulation
+    from vcavity.io.summary import format_summary
+    from vcavity.simulate.pipeline import Simulation
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
     print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), "
           f"{sim.total_paths:,} paths, {sim.threads} thread(s)", file=sys.stderr)
-    from vcavity import checkpoint, runner
+    from vcavity.io import checkpoint
+    from vcavity.simulate import driver as runner
 
     try:
         state = runner.load_state(sim, out, args.resume or False)
@@ -209,7 +210,7 @@ def _cmd_run(args) -> int:
             return _error(str(exc))
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
-    from vcavity.interrupts import raise_if_pending
+    from vcavity.simulate.interrupts import raise_if_pending
 
     raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
     print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
@@ -224,7 +225,7 @@ def _cmd_run(args) -> int:
         print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
     executor = None
     if args.dask:
-        from vcavity.distributed import DaskExecutor, parse_address
+        from vcavity.simulate.dask import DaskExecutor, parse_address
 
         try:
             parse_address(args.dask)
@@ -273,13 +274,13 @@ def _cmd_info(args) -> int:
 
     # a sweep file (vcavity sweep): its own summary; only regular files (h5py blocks on a FIFO)
     if Path(args.table).is_file() and is_sweep_file(args.table):
-        from vcavity.cli_sweep import cmd_sweep_info
+        from vcavity.cli.sweep import cmd_sweep_info
 
         return cmd_sweep_info(args)
-    from vcavity import checkpoint
+    from vcavity.io import checkpoint
 
     if Path(args.table).is_file() and checkpoint.is_checkpoint(args.table):  # a partial run
-        from vcavity.runner import describe_checkpoint
+        from vcavity.simulate.driver import describe_checkpoint
 
         try:
             print(describe_checkpoint(args.table))
@@ -287,7 +288,7 @@ def _cmd_info(args) -> int:
             return _error(f"checkpoint {args.table!r}: cannot read it ({str(exc).splitlines()[0] if str(exc) else exc})")
         return EXIT_OK
     from vcavity.io.table import TableFormatError, open_table
-    from vcavity.report import format_summary
+    from vcavity.io.summary import format_summary
 
     try:
         table = open_table(args.table)
@@ -304,7 +305,7 @@ def _cmd_compare(args) -> int:
     from vcavity.compare import compare_table, format_report
     from vcavity.io.table import TableFormatError, open_table
 
-    from vcavity.preflight import PreflightError, check_plots_folder
+    from vcavity.io.preflight import PreflightError, check_plots_folder
 
     if not 0.0 < args.significance < 1.0:
         return _error(f"--significance = {args.significance}: must be in (0, 1)")
@@ -339,8 +340,8 @@ def main(argv: list[str] | None = None) -> int:
     Ctrl-C anywhere (compiling, tracing, writing, comparing) ends with one line on stderr
     and exit status 130, never a traceback; ``run`` leaves no table and an old one untouched.
     """
-    from vcavity import interrupts
-    from vcavity.interrupts import is_interrupt
+    from vcavity.simulate import interrupts
+    from vcavity.simulate.interrupts import is_interrupt
 
     args = argparse.Namespace()
     interrupts.reset()
@@ -384,15 +385,15 @@ def _dispatch(args: argparse.Namespace, argv: list[str] | None) -> int:
     if args.command == "compare":
         return _cmd_compare(args)
     if args.command == "plot":
-        from vcavity.cli_plot import cmd_plot
+        from vcavity.cli.plot import cmd_plot
 
         return cmd_plot(args)
     if args.command == "sweep":
-        from vcavity.cli_sweep import cmd_sweep
+        from vcavity.cli.sweep import cmd_sweep
 
         return cmd_sweep(args)
     if args.command == "export":
-        from vcavity.cli_export import cmd_export
+        from vcavity.cli.export import cmd_export
 
         return cmd_export(args)
     parser.error(f"unknown command {args.command!r}")

@@ -1,0 +1,19 @@
+"""Running a simulation: the pipeline of work units, the exact-f1 models, the CLI's driver (checkpoints, Ctrl-C) and the Dask executor.
+
+``Simulation``, ``simulate``, ``RunResult``, ``RunInterrupted`` and ``incident_vector`` are
+importable from here (loaded on first use, so importing a submodule such as
+:mod:`vcavity.simulate.interrupts` compiles and imports no Numba code).
+"""
+
+_PIPELINE_NAMES = ("RunInterrupted", "RunResult", "Simulation", "incident_vector", "simulate")
+
+
+def __getattr__(name):
+    if name in _PIPELINE_NAMES:
+        from vcavity.simulate import pipeline
+
+        return getattr(pipeline, name)
+    raise AttributeError(f"module 'vcavity.simulate' has no attribute {name!r}")
+
+
+__all__ = list(_PIPELINE_NAMES)
