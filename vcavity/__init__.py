@@ -12,12 +12,7 @@ TableBRDF, DirectionNotTabulated
     azimuths an anisotropic table does not cover.
 """
 
-from importlib.metadata import PackageNotFoundError, version as _version
-
-try:
-    __version__ = _version("vcavity")
-except PackageNotFoundError:  # running from a source tree that is not installed
-    __version__ = "0.0.0+unknown"
+from vcavity._version import __version__
 
 
 def open_table(path):

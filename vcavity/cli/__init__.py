@@ -28,7 +28,7 @@ def build_parser() -> argparse.ArgumentParser:
         description="Monte-Carlo simulation of light in microfacet V-cavities: "
         "BRDF tables per bounce order (f1, f2, ..., f_inf) with error bars.",
     )
-    from vcavity import __version__
+    from vcavity._version import __version__
 
     parser.add_argument("--version", action="version", version=f"vcavity {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)

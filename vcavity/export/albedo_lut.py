@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vcavity import __version__
+from vcavity._version import __version__
 from vcavity.export import ExportRefused, ExportRequest
 from vcavity.plots.data import order_name
 from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule

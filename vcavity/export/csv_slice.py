@@ -121,7 +121,7 @@ def _wrap_deg(angle):
 
 
 def _comments(table, index: int, request: ExportRequest, n_lines_before_data: int) -> tuple:
-    from vcavity import __version__
+    from vcavity._version import __version__
 
     order = request.order
     order_text = ("0 (f_inf: all bounce orders)" if order == 0

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity import __version__
+from vcavity._version import __version__
 from vcavity.export import ExportRefused, order_data
 from vcavity.export import rgl_grids as grids
 from vcavity.export.marginal2d import Marginal2D

@@ -30,7 +30,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from vcavity import __version__ as _VCAVITY_VERSION
+from vcavity._version import __version__ as _VCAVITY_VERSION
 from vcavity.io import schema
 from vcavity.io.atomic import replace_atomically
 
