@@ -19,8 +19,9 @@ from vcavity import open_table
 from vcavity.cli import main
 from vcavity.plots import plot_table
 from vcavity.plots.figures import _disk, _disk_mesh
-from vcavity.plots.geometry import SIDE_OFFSET, plane_directions, plane_segments
+from vcavity.sensor.plane import SIDE_OFFSET, plane_directions, plane_segments
 from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.sensor.binning import cell_index
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -93,7 +94,7 @@ def test_plane_segments_agree_with_the_kernel_binning(resolution, phi):
     for where in (0.5, 0.02, 0.98):
         t = seg.edges[:-1] + where * width
         for side, column in ((-SIDE_OFFSET, 0), (SIDE_OFFSET, 1)):
-            binned = sensor.cell_index(plane_directions(t, phi, side))
+            binned = cell_index(sensor, plane_directions(t, phi, side))
             np.testing.assert_array_equal(binned, seg.cells[:, column])
     if resolution == 8 and phi == 0.0:
         assert np.all(seg.cells[:, 0] != seg.cells[:, 1])

@@ -12,6 +12,7 @@ from scipy import stats
 
 from vcavity.config import validate
 from vcavity.simulate.pipeline import simulate
+from vcavity.sensor.binning import cell_index
 
 
 def _config(material, theta_i_deg=(0.0, 60.0), paths=100_000, phi_i_deg=0.0, **simulation):
@@ -160,6 +161,6 @@ def test_mirror_with_tiny_roughness_reflects_into_the_specular_cell(theta_i_deg,
     result = simulate(cfg)
     t, p = math.radians(theta_i_deg), math.radians(phi_i_deg)
     specular = np.array([[-math.sin(t) * math.cos(p), -math.sin(t) * math.sin(p), math.cos(t)]])
-    cell = result.sensor.cell_index(specular)[0]
+    cell = cell_index(result.sensor, specular)[0]
     f1 = result.counts[0, list(result.order).index(1)]
     assert f1[cell] == result.paths[0]

@@ -46,7 +46,8 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import ConfigError, Material
-from vcavity.simulate.pipeline import incident_vector
+from vcavity.io.schema import order_name
+from vcavity.sensor.directions import incident_vector
 
 MODELS = ("vcavity", "smith", "smith-hc", "oren-nayar")
 DEFAULT_SIGNIFICANCE = 0.01
@@ -203,10 +204,6 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
     return report
 
 
-def _order_name(k: int) -> str:
-    return "f_inf" if k == 0 else f"f{k}"
-
-
 def _fmt(x: float) -> str:
     """A figure in a readable width: 4 significant digits, scientific when large or tiny."""
     x = float(x)
@@ -253,18 +250,18 @@ def format_report(report: ComparisonReport) -> str:
     m = report.material
     lines = [f"table {report.path}",
              f"material: {', '.join(f'{k}={v}' for k, v in m.items())}",
-             f"model: {report.model} vs {' + '.join(_order_name(k) for k in _orders_for(report.model))}; "
+             f"model: {report.model} vs {' + '.join(order_name(k) for k in _orders_for(report.model))}; "
              f"f1 vs V-cavity model: chi-square over cells and albedo z-test, family level "
              f"{report.significance:g} (Sidak: {report.per_test_level:.3g} per test)"]
     level = report.per_test_level
     for d in report.directions:
         c, a = d.chi_square, d.albedo_test
-        albedos = "  ".join(f"{_order_name(k)} {_fixed(v)}" for k, v in sorted(d.table_albedo.items()))
+        albedos = "  ".join(f"{order_name(k)} {_fixed(v)}" for k, v in sorted(d.table_albedo.items()))
         ratio = d.relative_l1 / d.noise_l1 if d.noise_l1 > 0 else float("inf")
         lines += [
             f"theta_i {_angle(d.theta_i)} deg  phi_i {_angle(d.phi_i)} deg  paths {d.paths:,}",
             f"  table albedo: {albedos}",
-            f"  {'+'.join(_order_name(k) for k in d.model_orders)}: table {_fixed(d.table_model_albedo)}  "
+            f"  {'+'.join(order_name(k) for k in d.model_orders)}: table {_fixed(d.table_model_albedo)}  "
             f"model {_fixed(d.model_albedo)}  ({report.model})",
             f"  relative L1 {_fmt(d.relative_l1)}  (noise alone: {_fmt(d.noise_l1)}, ratio {_fmt(ratio)})",
             f"  chi2 f1 vs vcavity: {_fmt(c.statistic)} / {c.dof} dof = {_fmt(c.statistic / c.dof)}  "
@@ -288,7 +285,7 @@ def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, or
     n = table.sensor.resolution
     theta = math.degrees(float(table.theta_i[j]))
     phi = math.degrees(float(table.phi_i[j]))
-    label = " + ".join(_order_name(k) for k in orders)
+    label = " + ".join(order_name(k) for k in orders)
     fig, axes = plt.subplots(1, 3, figsize=(13, 4.2))
     top = float(max(np.max(table_brdf), np.max(model_brdf), 1e-300))
     for ax, data, title in ((axes[0], table_brdf, f"table {label}"), (axes[1], model_brdf, f"model {model}")):

@@ -18,8 +18,7 @@ from numba import njit
 from scipy import integrate
 
 from vcavity.analytic.albedo import lambertian_normal_f1_albedo, specular_albedo
-from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
-from vcavity.analytic.terms import MASKING_CODES  # noqa: F401  (masking codes documented there)
+from vcavity.analytic.single_bounce import SingleBounceModel, gauss_legendre_unit
 from vcavity.config import validate
 from vcavity.facet.fresnel import fresnel_dielectric, r_e
 from vcavity.microfacet import common
@@ -69,7 +68,7 @@ def furnace_by_half_vector(masking, dist, alpha_x, alpha_y, o, n=200):
     """H eq. 36 with dω_i = 4 (o.h) dω_h: ∫ G1(o,h) D(h) (o.h)/|o.n| dω_h over the
     sampling map of p(h) = D(h)(h.n) (Gauss-Legendre in t, u1 = 1 - (1-t)^2)."""
     kind, params = distributions.params_from(dist, {"alpha_x": alpha_x, "alpha_y": alpha_y})
-    t, w = _t_rule(n)
+    t, w = gauss_legendre_unit(n)
     u1 = np.repeat(1 - (1 - t) ** 2, 2 * n)
     weight = np.repeat(2 * (1 - t) * w, 2 * n) / (2 * n)
     u2 = np.tile((np.arange(2 * n) + 0.5) / (2 * n), n)

@@ -22,7 +22,7 @@ import numpy as np
 
 from vcavity._numba.jit import njit
 
-from vcavity.analytic.single_bounce import SingleBounceModel, _t_rule
+from vcavity.analytic.single_bounce import SingleBounceModel, gauss_legendre_unit
 from vcavity.analytic.terms import VCAVITY, g2, smith_lambda
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
@@ -96,7 +96,7 @@ def specular_albedo(model: SingleBounceModel, incident, n_nodes: int = 256) -> f
     """
     if not model.has_specular:
         return 0.0
-    t_nodes, t_weights = _t_rule(int(n_nodes))
+    t_nodes, t_weights = gauss_legendre_unit(int(n_nodes))
     return float(_specular_albedo(np.ascontiguousarray(incident, dtype=np.float64), model.kind,
                                   model.params, model.facet_kind, model.facet_data, model.masking_code,
                                   model.lambda_fit, t_nodes, t_weights, 2 * int(n_nodes)))
@@ -128,7 +128,7 @@ def mean_cos_theta_m(model: SingleBounceModel, n_nodes: int = 512) -> float:
     Gauss-Legendre in ``t`` with ``u1 = 1 - (1-t)^2`` and midpoints in ``u2``; the
     integrand ``m.n`` is smooth, so this converges to round-off (1e-13 at 512).
     """
-    t_nodes, t_weights = _t_rule(int(n_nodes))
+    t_nodes, t_weights = gauss_legendre_unit(int(n_nodes))
     return float(_mean_cos(model.kind, model.params, t_nodes, t_weights, 2 * int(n_nodes)))
 
 

@@ -21,7 +21,12 @@ import math
 
 import numpy as np
 
-from vcavity.analytic.quadrature import radius_split_quadrature, subcell_quadrature
+from vcavity.analytic.quadrature import (
+    MAX_SPECULAR_SUB,
+    MIN_SPECULAR_SUB,
+    radius_split_quadrature,
+    subcell_quadrature,
+)
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.specular_peak import (
     DEFAULT_AZIMUTH_NODES,
@@ -33,8 +38,6 @@ from vcavity.sensor.grid import EqualAreaSensor
 
 DEFAULT_BODY_SUB = 4
 DEFAULT_SUB = 8
-MIN_SPECULAR_SUB = 16
-MAX_SPECULAR_SUB = 48
 #: Sub-points per roughness width across a cell (see specular_subpoints).
 SPECULAR_POINTS_PER_WIDTH = 6.0
 
@@ -61,7 +64,7 @@ def _hard_cells(cells, resolution):
     return (ix == iy) | (ix + iy == last) | (ix == 0) | (iy == 0) | (ix == last) | (iy == last)
 
 
-def _integrate(projected, incident, sensor, n_sub, cells, chunk_points=262144, kink_z=None, hard_sub=8,
+def integrate_cells(projected, incident, sensor, n_sub, cells, chunk_points=262144, kink_z=None, hard_sub=8,
                corner_sub=16):
     """``Σ_q w_q projected(i, o_q)`` per cell, in chunks of cells to bound memory.
 
@@ -137,9 +140,9 @@ def cell_integrals(model, incident, sensor: EqualAreaSensor, cells=None, n_sub=N
         if model.has_specular:
             total += specular_integrals(model, incident, sensor, cells, n_sub=n_sub_specular)
         if model.body_factor > 0.0:
-            total += _integrate(model.body_projected, incident, sensor, n_sub_body, cells)
+            total += integrate_cells(model.body_projected, incident, sensor, n_sub_body, cells)
         return total
-    return _integrate(model.projected, incident, sensor, n_sub or DEFAULT_SUB, cells)
+    return integrate_cells(model.projected, incident, sensor, n_sub or DEFAULT_SUB, cells)
 
 
 def specular_integrals(model: SingleBounceModel, incident, sensor: EqualAreaSensor, cells=None, n_sub=None,
@@ -186,7 +189,7 @@ def specular_integrals(model: SingleBounceModel, incident, sensor: EqualAreaSens
         # V-cavity masking: G1_V(o, h) < G1_V(i, h) exactly where o_z < i_z (o.h = i.h, IL eq. 14),
         # a kink of the specular term on the circle z = i_z
         kink = float(incident[2]) if model.masking == "vcavity" else None
-        out[~in_peak] = _integrate(model.specular_projected, incident, sensor, n_sub, wanted[~in_peak],
+        out[~in_peak] = integrate_cells(model.specular_projected, incident, sensor, n_sub, wanted[~in_peak],
                                    kink_z=kink)
     return out
 

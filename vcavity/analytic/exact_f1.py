@@ -26,7 +26,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity.analytic.cells import DEFAULT_BODY_SUB, MIN_SPECULAR_SUB, _integrate
+from vcavity.analytic.cells import DEFAULT_BODY_SUB, integrate_cells
+from vcavity.analytic.quadrature import MIN_SPECULAR_SUB
 from vcavity.analytic.single_bounce import ModelNotApplicable, SingleBounceModel
 from vcavity.analytic.specular_peak import (
     DEFAULT_PEAK_TOLERANCE,
@@ -261,7 +262,7 @@ class _Body:
     def _body(self, n_nodes, n_sub, cells, coarse=False):
         """Body integrals; ``coarse`` halves the minimum rules of the hard cells too."""
         model = self._model(n_nodes)
-        return _integrate(model.body_projected, self.incident, self.sensor, n_sub, cells,
+        return integrate_cells(model.body_projected, self.incident, self.sensor, n_sub, cells,
                           hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16)
 
     def refine(self, cells, wanted):
@@ -327,7 +328,7 @@ class _Specular:
     def _plain(self, n_sub, cells, coarse=False):
         """Sub-cell rule of the specular term; ``coarse`` halves the hard cells' minimum rules."""
         kink = float(self.incident[2]) if self.model.masking == "vcavity" else None
-        return _integrate(self.model.specular_projected, self.incident, self.sensor, n_sub, cells, kink_z=kink,
+        return integrate_cells(self.model.specular_projected, self.incident, self.sensor, n_sub, cells, kink_z=kink,
                           hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16)
 
     def tighten(self, tol):

@@ -18,15 +18,11 @@ import numpy as np
 from numba import prange
 
 from vcavity._numba.jit import njit
-from vcavity.sensor.binning import direction_to_cell
+from vcavity.analytic.quadrature import MAX_STEP, MIN_SPECULAR_SUB, STEP_CELLS
+from vcavity.sensor.binning import cell_index, direction_to_cell
 from vcavity.microfacet import registry as distributions
 
 _HALF_PI = 0.5 * math.pi
-#: A ray advances by at most this many sensor cell widths (in ``|Δo|``) per scan step, so
-#: that it crosses each cell edge once per step and every crossing is bracketed.
-_STEP_CELLS = 0.4
-#: Longest scan step in tau.
-_MAX_STEP = 1.0 / 32.0
 #: Error of a 16-point Gauss-Legendre rule on a Gaussian lobe, relative to the lobe's
 #: mass, against the rule's spacing in units of the lobe's width (sigma): measured over
 #: all positions of the lobe in the cell (docs/validation.md); beyond 2, the whole mass.
@@ -85,12 +81,12 @@ def _scan(incident, kind, params, scale_x, scale_y, profile_t, profile_width, re
     than the sub-cell rule resolves (see :func:`peak_cells`); one row of flags per ray."""
     ix, iy, iz = incident[0], incident[1], incident[2]
     flags = np.zeros((n_rays, resolution * resolution), dtype=np.bool_)
-    step_max = _STEP_CELLS / resolution
+    step_max = STEP_CELLS / resolution
     scale_min = min(scale_x, scale_y)
     for k in prange(n_rays):
         u2 = (k + 0.5) / n_rays
         tau = 0.0
-        h = _MAX_STEP
+        h = MAX_STEP
         ax, ay, az = -ix, -iy, iz
         while tau < 1.0:
             tb = min(tau + h, 1.0)
@@ -105,7 +101,7 @@ def _scan(incident, kind, params, scale_x, scale_y, profile_t, profile_width, re
                 h = 0.5 * (tb - tau)
                 continue
             tau, ax, ay, az = tb, ox, oy, oz
-            h = min(2.0 * h, _MAX_STEP)
+            h = min(2.0 * h, MAX_STEP)
             if mass * _GL_ERROR[-1] < min_error:  # nothing beyond can matter
                 break
             if im <= 0.0 or oz <= 0.0 or mz <= 0.0:
@@ -184,8 +180,6 @@ def peak_cells(model, incident, sensor) -> np.ndarray:
     around the mirror direction are returned; nothing when no cell is marked. The set
     does not depend on the rules used elsewhere, so refining those leaves it unchanged.
     """
-    from vcavity.analytic.cells import MIN_SPECULAR_SUB
-
     incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
     if not model.has_specular or incident[2] <= 0.0:
         return np.zeros(0, dtype=np.int64)
@@ -212,4 +206,4 @@ def peak_cells(model, incident, sensor) -> np.ndarray:
 
 def mirror_cell(incident, sensor) -> int:
     """Cell of the mirror direction ``(-i_x, -i_y, i_z)``."""
-    return int(sensor.cell_index(np.array([[-incident[0], -incident[1], incident[2]]]))[0])
+    return int(cell_index(sensor, np.array([[-incident[0], -incident[1], incident[2]]]))[0])

@@ -11,6 +11,17 @@ import numpy as np
 
 from vcavity.sensor.grid import EqualAreaSensor, square_to_hemisphere_array
 
+# Resolution constants the cell models share (cells.py, peak_cells.py, specular_peak.py):
+# here, in the module all three build on, so none of them imports another for a number.
+#: Fewest and most sub-points per cell side for the specular term (cells.specular_subpoints).
+MIN_SPECULAR_SUB = 16
+MAX_SPECULAR_SUB = 48
+#: A ray advances by at most this many sensor cell widths (in ``|Δo|``) per scan step, so
+#: that it crosses each cell edge once per step and every crossing is bracketed.
+STEP_CELLS = 0.4
+#: Longest scan step in tau.
+MAX_STEP = 1.0 / 32.0
+
 
 def subcell_quadrature(sensor: EqualAreaSensor, n_sub, cells=None):
     """Gauss-Legendre quadrature over sensor cells in solid angle.

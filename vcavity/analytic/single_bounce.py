@@ -283,7 +283,7 @@ class SingleBounceModel:
         if key not in self._nodes_cache:
             self._nodes_cache.clear()  # one incident direction at a time
             self._nodes_cache[key] = body_nodes(incident, self.kind, self.params, self.facet_kind,
-                                                self.facet_data, *_t_rule(self.n_nodes), 2 * self.n_nodes)
+                                                self.facet_data, *gauss_legendre_unit(self.n_nodes), 2 * self.n_nodes)
         return self._nodes_cache[key]
 
     def body_projected(self, incident, outgoing) -> np.ndarray:
@@ -313,8 +313,14 @@ class SingleBounceModel:
         return _divide_by_cos(self.projected(incident, outgoing), outgoing)
 
 
-def _t_rule(n):
-    """Gauss-Legendre nodes and weights on [0, 1]."""
+def gauss_legendre_unit(n):
+    """Gauss-Legendre rule of ``n`` points on [0, 1].
+
+    Returns
+    -------
+    nodes, weights : numpy.ndarray
+        The Legendre nodes mapped from [-1, 1] to [0, 1], and weights summing to 1.
+    """
     x, w = np.polynomial.legendre.leggauss(n)
     return 0.5 * (x + 1.0), 0.5 * w
 

@@ -35,9 +35,11 @@ import numpy as np
 from numba import prange
 
 from vcavity._numba.jit import njit
-from vcavity.analytic.peak_cells import _MAX_STEP, _STEP_CELLS, corner_u2
+from vcavity.analytic.peak_cells import corner_u2
+from vcavity.analytic.quadrature import MAX_STEP, STEP_CELLS, subcell_quadrature
 from vcavity.analytic.terms import SMITH, VCAVITY, smith_lambda
 from vcavity.sensor.binning import direction_to_cell, square_to_hemisphere
+from vcavity.sensor.grid import square_to_hemisphere_array
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import g2_smith_height_correlated, g2_smith_separable
@@ -98,11 +100,11 @@ def _ray(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fit
     """Integrals of one ray ``u2`` over each peak cell (``slot_of_cell[c] >= 0``)."""
     ix, iy, iz = incident[0], incident[1], incident[2]
     out = np.zeros(n_slots)
-    step_max = _STEP_CELLS / resolution
+    step_max = STEP_CELLS / resolution
     tau = 0.0
     key_a, _, ax, ay, az, _ = _point(0.0, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
                                      walter_fit, lambda_i, resolution)
-    h = _MAX_STEP
+    h = MAX_STEP
     while tau < 1.0:
         tb = min(tau + h, 1.0)
         key_b, _, bx, by, bz, tan_b = _point(tb, u2, ix, iy, iz, kind, params, facet_kind, facet_data,
@@ -138,7 +140,7 @@ def _ray(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fit
         tau, key_a, ax, ay, az = tb, key_b, bx, by, bz
         if tan_b > tan_stop:  # beyond every peak cell (tan theta_m grows along the ray)
             break
-        h = min(2.0 * h, _MAX_STEP)
+        h = min(2.0 * h, MAX_STEP)
     return out
 
 
@@ -296,9 +298,6 @@ def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NOD
 def _tan_stop(incident, sensor, cells):
     """1.5 x the largest ``tan θ_h`` at the nodes and corners of ``cells``: beyond it a ray
     (``tan θ_m`` grows along it) reaches none of them."""
-    from vcavity.analytic.quadrature import subcell_quadrature
-    from vcavity.sensor.grid import square_to_hemisphere_array
-
     directions, _ = subcell_quadrature(sensor, 4, cells=cells)
     u, v = _corners(cells, sensor.resolution)
     points = np.concatenate([directions.reshape(-1, 3), square_to_hemisphere_array(u, v)])

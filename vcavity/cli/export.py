@@ -56,7 +56,7 @@ def cmd_export(args) -> int:
     from vcavity.export import ExportRefused, ExportRequest, export, format_module
     from vcavity.io.sweep_table import is_sweep_file
     from vcavity.plots import PlotError, parse_order
-    from vcavity.plots.data import order_name
+    from vcavity.io.schema import order_name
 
     try:
         module = format_module(args.format)

@@ -30,7 +30,7 @@ import numpy as np
 
 from vcavity._version import __version__
 from vcavity.export import ExportRefused, ExportRequest
-from vcavity.plots.data import order_name
+from vcavity.io.schema import order_name
 from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 NAME = "albedo-lut"

@@ -1,6 +1,6 @@
 """``--format csv``: the in-plane slice of one incident direction as a CSV file.
 
-The slice is the one ``vcavity plot --kind slice`` draws (:mod:`vcavity.plots.geometry`):
+The slice is the one ``vcavity plot --kind slice`` draws (:mod:`vcavity.sensor.plane`):
 the great circle through the pole and the incident azimuth, parametrised by the signed
 angle ``theta_o_deg`` in ``[-90, 90]``: ``< 0`` back toward the light (``phi_o = phi_i``),
 ``>= 0`` on the specular side (``phi_o = phi_i + 180``; the mirror direction is
@@ -38,7 +38,7 @@ COLUMNS = ("theta_o_deg", "phi_o_deg", "cell", "brdf", "brdf_stderr")
 #: --theta-i matches a tabulated theta_i_deg this close (deg), as `vcavity plot --theta-i`.
 THETA_I_MATCH_DEG = 1e-6
 #: Angles are written rounded to this many decimals (deg): the slice's cell borders are
-#: located to ~5e-11 deg (plots.geometry), finer digits are bisection noise.
+#: located to ~5e-11 deg (sensor.plane), finer digits are bisection noise.
 ANGLE_DECIMALS = 9
 
 
@@ -163,7 +163,7 @@ def prepare(table, request: ExportRequest) -> CsvSlice:
     ExportRefused
         An order the table lacks, or an incident direction that names no single row.
     """
-    from vcavity.plots.geometry import plane_segments
+    from vcavity.sensor.plane import plane_segments
 
     brdf_of_order, order_index = order_data(table, request)
     index = incidence_index(table, request.theta_i_deg)

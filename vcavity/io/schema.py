@@ -151,6 +151,22 @@ MATERIAL_DESCRIPTION = (
 GZIP_LEVEL = 4
 
 
+def order_name(k: int) -> str:
+    """The name of a bounce order as tables, reports and plots spell it.
+
+    Parameters
+    ----------
+    k : int
+        A value of the ``order`` axis: 1, 2, ... or 0 for all orders.
+
+    Returns
+    -------
+    str
+        ``"f_inf"`` for order 0, ``"f<k>"`` otherwise (the names ``vcavity info`` prints).
+    """
+    return "f_inf" if int(k) == 0 else f"f{int(k)}"
+
+
 def is_scale(name: str) -> bool:
     """Whether a dataset is the dimension scale of an axis.
 

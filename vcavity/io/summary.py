@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from vcavity.io.schema import order_name
+
 
 def _angle(degrees: float) -> str:
     """An angle for a table column: 2 decimals, or 3 significant digits when that would be
@@ -19,10 +21,6 @@ def _number(value) -> float | None:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         return None
     return float(value)
-
-
-def _order_label(k: int) -> str:
-    return "f_inf" if k == 0 else f"f{k}"
 
 
 def format_material(material: dict) -> str:
@@ -61,7 +59,7 @@ def format_summary(table, verbose: bool = False) -> str:
     lines = [f"material: {format_material(table.material)}"]
     lines.append(
         f"sensor: {table.sensor.n_cells} cells ({table.sensor.resolution}x{table.sensor.resolution}), "
-        f"seed {table.seed}, orders {', '.join(_order_label(int(k)) for k in table.order)}"
+        f"seed {table.seed}, orders {', '.join(order_name(int(k)) for k in table.order)}"
     )
     lines.append(_estimator_line(table))
     if verbose:
@@ -78,7 +76,7 @@ def format_summary(table, verbose: bool = False) -> str:
             lines.append(f"run time {t_run:.2f} s ({total / t_run / 1e6:.2f} M paths/s), "
                          f"compile/load {t_compile:.2f} s")
     with_error = table.relative_error is not None and np.any(np.isfinite(table.relative_error))
-    header = ["theta_i", "phi_i", "paths"] + [f"albedo {_order_label(int(k))}" for k in table.order] + [
+    header = ["theta_i", "phi_i", "paths"] + [f"albedo {order_name(int(k))}" for k in table.order] + [
         "absorbed", "truncated"] + (["rel. error f_inf"] if with_error else [])
     if np.any(table.degenerate > 0):
         header.append("degenerate")

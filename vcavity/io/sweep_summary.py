@@ -7,16 +7,14 @@ import math
 
 import numpy as np
 
+from vcavity.io.schema import order_name
+
 #: Rows of the albedo table printed before the rest is elided.
 MAX_ROWS = 200
 
 
 def _value(v) -> str:
     return f"{v:g}" if isinstance(v, (int, float)) else str(v)
-
-
-def _order_label(k: int) -> str:
-    return "f_inf" if k == 0 else f"f{k}"
 
 
 def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
@@ -44,8 +42,8 @@ def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
     resolution = attrs.get("sensor_resolution")
     lines.append(f"points: {sweep.n_done()} of {n_points} done ({math.prod(sweep.shape):,} grid positions); "
                  f"sweep seed {attrs.get('seed')}, estimator {attrs.get('estimator')}, sensor "
-                 f"{resolution}x{resolution}, orders {', '.join(_order_label(int(k)) for k in sweep.order)}")
-    header = [a.name for a in sweep.axes] + ["paths"] + [f"albedo {_order_label(int(k))}" for k in sweep.order] \
+                 f"{resolution}x{resolution}, orders {', '.join(order_name(int(k)) for k in sweep.order)}")
+    header = [a.name for a in sweep.axes] + ["paths"] + [f"albedo {order_name(int(k))}" for k in sweep.order] \
         + ["absorbed", "truncated"]
     rows = []
     point_positions = [i for i, a in enumerate(sweep.axes) if a.name in sweep.point_axes]

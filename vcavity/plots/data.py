@@ -1,7 +1,7 @@
 """The numbers each plot draws, computed without matplotlib (and tested without pixels).
 
 - :func:`slice_data`: in-plane slices of a table (physics.md sec. 6 cell averages along
-  the plane of incidence, :mod:`vcavity.plots.geometry`) with the single-bounce models
+  the plane of incidence, :mod:`vcavity.sensor.plane`) with the single-bounce models
   (physics.md sec. 7) averaged over the same cells.
 - :func:`albedo_data`: albedo per order and the inter-reflection share
   ``(f_inf - f1)/f_inf`` against ``theta_i``, with binomial standard errors.
@@ -9,21 +9,16 @@
 
 from __future__ import annotations
 
-import math
 import sys
 from dataclasses import dataclass, field
 
 import numpy as np
 
-from vcavity.plots.geometry import plane_segments
+from vcavity.sensor.directions import incident_vector
+from vcavity.sensor.plane import plane_segments
 
 #: Overlay models of a slice: name as ``vcavity compare --model`` spells it -> legend label.
 SLICE_MODELS = {"vcavity": "V-cavity model", "smith": "Smith model"}
-
-
-def order_name(k: int) -> str:
-    """``f_inf`` for order 0, ``f<k>`` otherwise (the names ``vcavity info`` prints)."""
-    return "f_inf" if int(k) == 0 else f"f{int(k)}"
 
 
 @dataclass(frozen=True)
@@ -63,12 +58,6 @@ class SliceData:
     def centers(self) -> np.ndarray:
         """Mid signed theta_o (deg) of each stretch."""
         return 0.5 * (self.edges[1:] + self.edges[:-1])
-
-
-def incident_direction(theta_i: float, phi_i: float) -> np.ndarray:
-    """``(sin θ cos φ, sin θ sin φ, cos θ)`` toward the light (physics.md sec. 1)."""
-    s = math.sin(theta_i)
-    return np.array([s * math.cos(phi_i), s * math.sin(phi_i), math.cos(theta_i)])
 
 
 def _along(values, cells):
@@ -143,7 +132,7 @@ def slice_data(table, index: int, orders, models=None, notes=()) -> SliceData:
         from vcavity.analytic.cells import cell_average
 
         unique = np.unique(cells)
-        incident = incident_direction(theta_i, phi_i)
+        incident = incident_vector(theta_i, phi_i)
         for name, model in models.items():
             per_cell = np.zeros(table.sensor.n_cells)
             per_cell[unique] = cell_average(model, incident, table.sensor, cells=unique)

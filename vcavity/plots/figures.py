@@ -13,7 +13,8 @@ import numpy as np
 from matplotlib.colors import LogNorm, Normalize
 from matplotlib.figure import Figure
 
-from vcavity.plots.data import SLICE_MODELS, order_name
+from vcavity.io.schema import order_name
+from vcavity.plots.data import SLICE_MODELS
 from vcavity.io.summary import format_material
 from vcavity.sensor.grid import square_to_hemisphere_array
 
@@ -92,14 +93,15 @@ def figure_legend(fig, ax):
                frameon=False)
 
 
-def _grid(n_panels, max_columns=4):
+def panel_grid(n_panels, max_columns=4):
+    """Rows and columns of a figure of ``n_panels`` panels, at most ``max_columns`` wide."""
     columns = min(n_panels, max_columns)
     return math.ceil(n_panels / columns), columns
 
 
 def slice_figure(table, datas, scale: str = "log") -> Figure:
     """One slice panel per incident direction (up to 4 per row)."""
-    rows, columns = _grid(len(datas))
+    rows, columns = panel_grid(len(datas))
     fig = Figure(figsize=(max(4.6 * columns, 7.5), 3.9 * rows + 0.9), layout="constrained")
     axes = fig.subplots(rows, columns, squeeze=False).ravel()
     for ax, data in zip(axes, datas):

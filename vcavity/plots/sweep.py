@@ -5,7 +5,7 @@ colour per combination of the other material axes (eta, kd, distribution, ...), 
 style per bounce order (f1 and f_inf by default), error bars of ±2 standard errors where
 the sweep's estimator gives them (:mod:`vcavity.sweep.albedo`). The roughness axis is the
 first of :data:`ROUGHNESS_AXES` the sweep varies (else the first it has). Points not done
-are gaps. :func:`sweep_data` computes the numbers without matplotlib; :func:`render_sweep`
+are gaps. :func:`sweep_data` computes the numbers without matplotlib; :func:`render`
 draws them and returns them.
 """
 
@@ -16,14 +16,27 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vcavity.plots.data import order_name
+from vcavity.io.schema import order_name
+from vcavity.plots.request import (
+    PlotError,
+    PlotRequest,
+    check_output,
+    parse_order,
+    select_theta,
+    sort_orders,
+)
 from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 #: Axes that are a roughness, in the order one is picked as the x axis.
 ROUGHNESS_AXES = ("alpha", "alpha_x", "alpha_y", "sigma", "exponent")
 INCIDENCE_AXES = ("theta_i_deg", "phi_i_deg")
+NAME = "sweep"
+SOURCE = "sweep"
+SCALES = ("linear",)
+DEFAULT_SCALE = "linear"
 #: Orders drawn when none are asked for (those the sweep has).
 DEFAULT_ORDERS = (1, 0)
+MODELS = ()
 #: Line style and marker of each order (colour says the material).
 ORDER_STYLES = {0: ("-", "o"), 1: ("--", "s"), 2: (":", "^"), 3: ("-.", "D")}
 
@@ -73,8 +86,10 @@ class SweepPlotData:
     notes: list = field(default_factory=list)
 
 
-def check_sweep_request(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
+def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
     """Check ``--kind sweep`` against a sweep file, computing nothing.
+
+    ``scale`` was checked against :data:`SCALES` by :func:`vcavity.plots.check_request`.
 
     Returns
     -------
@@ -87,11 +102,7 @@ def check_sweep_request(sweep, output=None, theta_i_deg=None, orders=None, scale
         One line: no roughness axis, a log scale, an order or theta_i the sweep lacks, a bad
         output.
     """
-    from vcavity.plots import PlotError, PlotRequest, check_output, parse_order, select_theta
-
     name = sweep.path.name if sweep.path is not None else "(in memory)"
-    if scale is not None and scale != "linear":
-        raise PlotError(f"--scale = {scale!r}: applies to --kind slice and map; sweep plots are linear")
     if roughness_axis(sweep) is None:
         have = ", ".join(a.name for a in sweep.axes)
         raise PlotError(f"sweep {name} has no roughness axis (axes: {have}); --kind sweep draws albedo against "
@@ -110,7 +121,7 @@ def check_sweep_request(sweep, output=None, theta_i_deg=None, orders=None, scale
                 raise PlotError(f"--order = {'f_inf' if k == 0 else k}: sweep {name} has orders {have}{need}")
     else:
         chosen = tuple(k for k in DEFAULT_ORDERS if order_position(sweep, k) is not None)
-    chosen = tuple(sorted(chosen, key=lambda k: (k == 0, k)))  # f1, f2, ..., f_inf
+    chosen = sort_orders(chosen)
     theta = next(a for a in sweep.axes if a.name == "theta_i_deg").values
     indices = select_theta(theta, theta_i_deg, f"sweep {name}")
     return PlotRequest(kind="sweep", output=out, indices=tuple(indices), orders=chosen, scale="linear",
@@ -185,9 +196,9 @@ def sweep_figure(sweep, data: SweepPlotData):
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 
-    from vcavity.plots.figures import _grid
+    from vcavity.plots.figures import panel_grid
 
-    rows, columns = _grid(len(data.panels))
+    rows, columns = panel_grid(len(data.panels))
     fig = Figure(figsize=(max(4.8 * columns, 7.5), 3.9 * rows + 1.6), layout="constrained")
     axes = fig.subplots(rows, columns, squeeze=False, sharey=True).ravel()
     n_lines = len(data.lines)
@@ -244,13 +255,11 @@ def sweep_figure(sweep, data: SweepPlotData):
     return fig
 
 
-def render_sweep(sweep, request) -> SweepPlotData:
-    """Draw and save a checked ``--kind sweep`` request; returns :func:`sweep_data`'s numbers."""
+def render(sweep, request):
+    """Draw a checked ``--kind sweep`` request; returns ``(figure, SweepPlotData)``."""
     data = sweep_data(sweep, request.indices, request.orders)
-    fig = sweep_figure(sweep, data)
-    fig.savefig(request.output, dpi=110)
-    return data
+    return sweep_figure(sweep, data), data
 
 
-__all__ = ["DEFAULT_ORDERS", "ROUGHNESS_AXES", "SweepPlotData", "check_sweep_request", "render_sweep",
+__all__ = ["DEFAULT_ORDERS", "ROUGHNESS_AXES", "SweepPlotData", "check", "render",
            "roughness_axis", "sweep_data", "sweep_figure"]

@@ -4,7 +4,7 @@ Jitted scalar functions: the Shirley-Chiu concentric map of the square ``[-1, 1]
 the unit disk lifted to the upper hemisphere (:func:`square_to_hemisphere`), its inverse
 (:func:`hemisphere_to_square`) and :func:`direction_to_cell`, the O(1) binning of an exit
 direction. The kernel inlines these; :class:`vcavity.sensor.grid.EqualAreaSensor` (plain NumPy)
-describes the cells and bins through :func:`directions_to_cells` with exactly this code.
+describes the cells, and :func:`cell_index` bins directions into them with exactly this code.
 Cell ``c = iy * N + ix`` covers ``u`` in ``[-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and ``v`` in
 ``[-1 + 2 iy/N, -1 + 2 (iy+1)/N]``.
 """
@@ -276,3 +276,28 @@ def squares_to_hemisphere(u, v):
 
 __all__ = ["direction_to_cell", "directions_to_cells", "hemisphere_to_square",
            "square_to_hemisphere", "squares_to_hemisphere"]
+
+
+def cell_index(sensor, directions):
+    """Cell index of each direction, binned exactly as the simulation kernel does.
+
+    Runs the kernel's jitted binning (:func:`directions_to_cells`; compiled, or loaded
+    from Numba's cache, on first use).
+
+    Parameters
+    ----------
+    sensor : vcavity.sensor.grid.EqualAreaSensor
+        The sensor whose cells are meant (a table's ``table.sensor``).
+    directions : array_like, shape (..., 3)
+        Upper-hemisphere directions (approximately unit length).
+
+    Returns
+    -------
+    numpy.ndarray of int64, shape (...)
+        Cell indices in ``[0, sensor.n_cells)``.
+    """
+    directions = np.asarray(directions, dtype=np.float64)
+    if directions.ndim < 1 or directions.shape[-1] != 3:
+        raise ValueError(f"directions must have shape (..., 3), got {directions.shape}")
+    flat = np.ascontiguousarray(directions.reshape(-1, 3))
+    return directions_to_cells(flat, sensor.resolution).reshape(directions.shape[:-1])

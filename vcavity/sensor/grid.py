@@ -13,9 +13,9 @@ Cell ``c = iy * N + ix`` covers ``u ∈ [-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and
 
 This module describes the cells (bounds, centres and their angles, solid angles,
 exact projected solid angles) in plain NumPy and imports no Numba, so reading a table
-needs no JIT compilation. Only :meth:`EqualAreaSensor.cell_index` bins, and it does so
-with the simulation kernel's own jitted code (:mod:`vcavity.sensor.binning`, imported when
-first called), so a direction lands in exactly the cell the kernel counted it in.
+needs no JIT compilation. Binning directions into cells is the kernel's own jitted code,
+:func:`vcavity.sensor.binning.cell_index`, so a direction lands in exactly the cell the
+kernel counted it in.
 """
 
 from functools import cached_property
@@ -187,30 +187,6 @@ class EqualAreaSensor:
         if cells.size and (cells.min() < 0 or cells.max() >= self.n_cells):
             raise ValueError(f"cell indices must lie in [0, {self.n_cells})")
         return cells.astype(np.int64)
-
-    def cell_index(self, directions):
-        """Cell index of each direction, binned exactly as the simulation kernel does.
-
-        Runs the kernel's jitted binning (:func:`vcavity.sensor.binning.directions_to_cells`;
-        compiled, or loaded from Numba's cache, on first use).
-
-        Parameters
-        ----------
-        directions : array_like, shape (..., 3)
-            Upper-hemisphere directions (approximately unit length).
-
-        Returns
-        -------
-        numpy.ndarray of int64, shape (...)
-            Cell indices in ``[0, n_cells)``.
-        """
-        directions = np.asarray(directions, dtype=np.float64)
-        if directions.ndim < 1 or directions.shape[-1] != 3:
-            raise ValueError(f"directions must have shape (..., 3), got {directions.shape}")
-        flat = np.ascontiguousarray(directions.reshape(-1, 3))
-        from vcavity.sensor.binning import directions_to_cells  # the kernel's code: imports Numba
-
-        return directions_to_cells(flat, self.resolution).reshape(directions.shape[:-1])
 
     @cached_property
     def cell_center(self):

@@ -27,6 +27,7 @@ from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT
                                    STAT_UNBINNED, get_kernel)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
+from vcavity.sensor.directions import incident_vector
 from vcavity.sensor.grid import EqualAreaSensor
 
 #: Default paths per kernel call: large enough to amortise the call, small enough for a
@@ -55,12 +56,6 @@ class Scene:
         dist_kind, params = distributions.params_from(material.distribution, material.distribution_params)
         facet_kind, variant, data = facets.prepare(material.facet, material.facet_params)
         return cls(dist_kind, params, facet_kind, variant, data)
-
-
-def incident_vector(theta_i: float, phi_i: float) -> np.ndarray:
-    """Unit vector toward the light (physics.md sec. 1 conventions)."""
-    s = math.sin(theta_i)
-    return np.array([s * math.cos(phi_i), s * math.sin(phi_i), math.cos(theta_i)])
 
 
 @dataclass

@@ -1,0 +1,111 @@
+"""The vocabulary of a plot request: what was asked, checked once, before anything is drawn.
+
+Every plot kind (:mod:`vcavity.plots.slice`, ``map``, ``albedo``, ``sweep``) checks its
+options with these helpers and answers with a :class:`PlotRequest`; a bad option is a
+one-line :class:`PlotError` naming the option, the value and what is accepted.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+OUTPUT_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+class PlotError(ValueError):
+    """A plot request the table cannot satisfy; the message is one line."""
+
+
+@dataclass(frozen=True)
+class PlotRequest:
+    """A checked request: what :func:`render` draws."""
+
+    kind: str
+    output: Path
+    indices: tuple
+    orders: tuple
+    scale: str
+    models: tuple
+
+
+def parse_order(text) -> int:
+    """Bounce order from ``"0"``, ``"inf"``, ``"f_inf"``, ``"2"`` or ``"f2"``.
+
+    Raises
+    ------
+    PlotError
+        If ``text`` names no order.
+    """
+    word = str(text).strip().lower()
+    if word in ("inf", "f_inf", "finf", "0"):
+        return 0
+    digits = word[1:] if word.startswith("f") else word
+    if digits.isdigit():
+        return int(digits)
+    raise PlotError(f"--order = {text!r}: expected a bounce order: 1, 2, ... (or f1, f2, ...), "
+                    "or 0 / inf / f_inf for all orders")
+
+
+def orders_text(table):
+    """The orders a table holds, as ``--order`` spells them (``"1, 2, 0 (f_inf)"``)."""
+    return ", ".join("0 (f_inf)" if int(k) == 0 else str(int(k)) for k in table.order)
+
+
+def default_output(table, kind: str) -> Path:
+    """``<table stem>_<kind>.png`` beside the table."""
+    return table.path.with_name(f"{table.path.stem}_{kind}.png")
+
+
+def check_output(output) -> Path:
+    """The output file as a path, refused (PlotError) unless it can be written."""
+    out = Path(output)
+    if out.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise PlotError(f"-o = {str(out)!r}: unsupported file type {out.suffix or '(none)'!r}; "
+                        f"accepted {', '.join(OUTPUT_SUFFIXES)}")
+    if out.is_dir():
+        raise PlotError(f"-o = {str(out)!r}: is a directory; give a file path")
+    folder = out.parent
+    if not folder.is_dir():
+        raise PlotError(f"-o = {str(out)!r}: folder {str(folder)!r} does not exist")
+    if not os.access(folder, os.W_OK):
+        raise PlotError(f"-o = {str(out)!r}: folder {str(folder)!r} is not writable")
+    return out
+
+
+def sort_orders(orders) -> tuple:
+    """Orders as drawn: f1, f2, ..., then f_inf (order 0) last."""
+    return tuple(sorted(orders, key=lambda k: (k == 0, k)))
+
+
+def select_theta(theta_deg, requested, source: str) -> list:
+    """Indices of the incident directions ``--theta-i`` names (all when ``requested`` is empty).
+
+    ``requested`` holds strings or numbers in degrees, matched within 1e-6 deg of the
+    tabulated ``theta_deg`` (every direction at a matching angle, in order, once).
+
+    Raises
+    ------
+    PlotError
+        A value that is not a number or matches no tabulated angle (``source`` names the
+        file in the message, which lists the tabulated angles).
+    """
+    theta = np.asarray(theta_deg, dtype=np.float64)
+    if not requested:
+        return list(range(theta.size))
+    indices = []
+    for value in requested:
+        try:
+            number = float(value)
+        except ValueError:
+            raise PlotError(f"--theta-i = {value!r}: expected an angle in degrees") from None
+        hits = np.flatnonzero(np.isclose(theta, number, rtol=0.0, atol=1e-6))
+        if hits.size == 0:
+            listed = ", ".join(f"{t:g}" for t in theta)
+            raise PlotError(f"--theta-i = {number:g}: not an incident direction of {source} "
+                            f"(theta_i_deg: {listed})")
+        indices.extend(int(h) for h in hits if int(h) not in indices)
+    return indices
