@@ -3,7 +3,7 @@
 Public entry points
 -------------------
 open_table(path)
-    Read a BRDF table written by ``vcavity run`` (HDF5 format v2, or v1); imports no
+    Read a BRDF table written by ``vcavity run`` (HDF5 format v3, v2 or v1); imports no
     Numba and compiles nothing. The table it returns is also a BRDF for renderers:
     ``t.eval(wi, wo, order)``, ``t.sample(wi, u1, u2, order)``, ``t.pdf(wi, wo, order)``,
     ``t.albedo_at(wi, order)`` (docs/table-api.md).

@@ -19,7 +19,10 @@ module offers the same interface:
     Writes the file at ``path`` (a fresh temporary file that the caller renames onto the
     destination atomically; see :func:`export`).
 
-Plain NumPy and h5py: no export compiles Numba code.
+Plain NumPy (tables are read through :mod:`vcavity.io`), except where a format evaluates the table's distribution: ``rgl``
+(and ``rgl-spectral``, built on it) fits its sampling warp with the jitted registry
+(:mod:`vcavity.microfacet.registry`, compiled or loaded from Numba's cache). No export
+imports the walk (``vcavity.kernels``, ``vcavity.simulate``).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Layout of vcavity BRDF tables: dataset names, axes, units, descriptions (docs/hdf5-format.md).
 
-Format version 2 is an HDF5 file that netCDF-4 readers (netCDF-C, netCDF4-python,
+Format version 3 (as version 2 before it) is an HDF5 file that netCDF-4 readers (netCDF-C, netCDF4-python,
 h5netcdf, xarray) read as a netCDF dataset without options:
 
 - every axis (``incidence``, ``order``, ``cell``, ``xyz``) has exactly one dimension-scale

@@ -1,9 +1,9 @@
 """HDF5 BRDF tables: the in-memory :class:`Table`, :func:`open_table` and :func:`write_table`.
 
-``vcavity.io`` is the only part of vcavity that imports h5py; none of it imports Numba,
-so reading a table compiles nothing. The layout (format v2, netCDF-4 compatible) is
+``vcavity.io`` is the only part of vcavity that imports h5py; none of it imports Numba
+(an import-linter contract, pyproject.toml), so reading a table compiles nothing. The layout (format v3, netCDF-4 compatible) is
 documented in ``docs/hdf5-format.md`` and defined in :mod:`vcavity.io.schema`; writing is
-in :mod:`vcavity.io.writer`. Tables of format v1 are still read. The tabulated quantity
+in :mod:`vcavity.io.writer`. Tables of format v1 and v2 are still read. The tabulated quantity
 is the cell-averaged, cosine-weighted BRDF of physics.md section 6::
 
     brdf[c] = (1/Ω⊥_c) ∫_c f_k(i, o) cos θ_o dω_o  ≈  counts[c] / (paths Ω⊥_c)
@@ -183,7 +183,7 @@ def _python_value(value) -> Any:
 
 
 def open_table(path) -> Table:
-    """Read a vcavity BRDF table (format v2, or v1) into memory.
+    """Read a vcavity BRDF table (format v3, v2 or v1) into memory.
 
     Parameters
     ----------

@@ -1,1 +1,1 @@
-"""The equal-solid-angle hemispherical sensor: its cells in plain NumPy (grid) and the jitted binning of exit directions (binning)."""
+"""The equal-solid-angle hemispherical sensor: its cells in plain NumPy (grid), the jitted binning of exit directions (binning), incident directions (directions) and the plane of incidence across the cells (plane)."""
