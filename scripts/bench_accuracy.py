@@ -1,4 +1,4 @@
-"""Accuracy benchmark of issue 3: f1 of the IL paper's figure 7 material against the
+"""Accuracy benchmark: f1 of the IL paper's figure 7 material against the
 V-cavity single-bounce model, at the default sensor resolution.
 
 Target (10^9 paths per direction, theta_i in {0, 30, 60, 80} deg): relative L1 over the

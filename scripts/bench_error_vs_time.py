@@ -1,4 +1,4 @@
-"""Error against paths and wall time, for every estimator (issue: fast to a given accuracy).
+"""Error against paths and wall time, for every estimator: how fast each reaches a given accuracy.
 
 For each material at theta_i = 60 deg (the IL paper's figure 7(b) material, GGX alpha 0.5
 kd 0.8, a near-specular dielectric Beckmann alpha 0.1 kd 0) and each estimator (analog

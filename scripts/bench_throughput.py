@@ -3,7 +3,7 @@
 
 Three measurements, printed as tables (docs/performance.md records them):
 
-1. **Against an old commit** (default aae24c0, issue 9): the old commit is checked out in a
+1. **Against an old commit** (default aae24c0): the old commit is checked out in a
    temporary ``git worktree`` (removed afterwards), and old and new kernels trace the
    figure 7(b) material at theta_i = 60 deg with 2 threads in alternating subprocesses
    (each compiled first, with its own Numba cache); median paths/s of each and the ratio.

@@ -1,6 +1,6 @@
 #!/usr/bin/env python
 """Numerical stress test of the V-cavity walk: extreme roughness, grazing light, extreme
-indices (issue 4). Prints one row per case and exits 1 if any invariant breaks.
+indices. Prints one row per case and exits 1 if any invariant breaks.
 
     python scripts/stress.py [--quick] [--threads T] [--scale S] [--only SUBSTRING] [--markdown]
 

@@ -1,4 +1,4 @@
-"""Exact single-bounce albedo of the V-groove walk, for scripts/stress.py (issue 4).
+"""Exact single-bounce albedo of the V-groove walk, for scripts/stress.py.
 
 The simulated ``f1`` (paths leaving after exactly one facet event) has a closed-form
 expectation up to a 3-D quadrature: with V-cavity masking the single-bounce model IS the

@@ -1,5 +1,5 @@
-"""Parameters exactly at the edge of validity get the same one-line errors as any bad input
-(issue 4): exit status 2, one line on stderr naming the field and value, nothing on
+"""Parameters exactly at the edge of validity get the same one-line errors as any bad input:
+exit status 2, one line on stderr naming the field and value, nothing on
 stdout, no output file (not even a temporary one). Values just inside the edge run.
 """
 

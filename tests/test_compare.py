@@ -167,7 +167,7 @@ def test_nodes_beyond_the_limit_is_a_one_line_error(tables):
 
 @pytest.mark.parametrize("alpha", [1e-4, 1e-300])
 def test_narrow_lobes_get_a_correct_verdict(tmp_path, capsys, alpha):
-    """Issue 9 item 5: Beckmann alpha 1e-4 failed (the specular lobe was lost between the
+    """Beckmann alpha 1e-4 once failed (the specular lobe was lost between the
     sub-cell nodes: model 0.2756 vs table 0.3173) and 1e-300 raised SystemError. Now the
     truth passes (false-alarm rate 1 %, family level over the two directions)."""
     path = write_run(tmp_path / "narrow.h5", dict(FIG7, alpha=alpha))

@@ -1,4 +1,4 @@
-"""Property-based tests (Hypothesis) over the whole valid parameter space (issue 4).
+"""Property-based tests (Hypothesis) over the whole valid parameter space.
 
 Sampled normals are unit and in the upper hemisphere; Fresnel terms lie in [0, 1], are
 symmetric under the inside/outside swap and continuous through eta -> 1; facet events

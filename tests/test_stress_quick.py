@@ -1,4 +1,4 @@
-"""The --quick subset of scripts/stress.py (issue 4), and checks of its exact f1 reference.
+"""The --quick subset of scripts/stress.py, and checks of its exact f1 reference.
 
 Each quick case must keep every invariant of the script (finite non-negative table, exact
 books, bounce cap, energy conservation, no degenerate path, f1 within 5 sigma of the exact

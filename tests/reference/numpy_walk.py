@@ -7,8 +7,8 @@ here from the formulas, with the helpers of :mod:`tests.reference.materials` and
 
 - as a statistical reference for the kernel (tests/kernels/test_numpy_walk.py): the same
   material and incidence give counts per (order, cell) that agree within error bars;
-- as the throughput baseline of scripts/bench_throughput.py (issue 9 asks for the jitted
-  kernel to be at least 20x faster single-threaded).
+- as the throughput baseline of scripts/bench_throughput.py (the jitted
+  kernel is to be at least 20x faster single-threaded).
 
 How it differs from the kernel, on purpose: the groove normal is sampled with ``cos``/``sin``
 of ``2 pi u2`` (H sec. 5, stretched slopes) instead of a disk point; positions are

@@ -1,5 +1,5 @@
-"""Simulated f1 against the V-cavity model where the model's quadrature used to fail
-(issue 9 item 5): lobes far below a cell (GGX alpha 1e-300, Phong exponent 1e300,
+"""Simulated f1 against the V-cavity model where the model's quadrature used to fail:
+lobes far below a cell (GGX alpha 1e-300, Phong exponent 1e300,
 Student-t alpha 1e-5 with the heaviest tail), an anisotropic ridge (Beckmann 1e-4 x 0.5)
 and the wedge of a lobe at grazing incidence (Beckmann 0.02 at 88 and 89.9 deg, 0.6 at
 89.99 deg). The simulator is the independent reference; ``vcavity compare``'s own tests

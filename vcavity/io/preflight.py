@@ -1,7 +1,7 @@
 """Checks that run before the first path is traced: output path, disk space, memory.
 
 Everything here can fail on the user's input or machine, so it runs before compiling or
-tracing (issue 10): a bad output path, a full disk or a run that cannot fit in memory is
+tracing: a bad output path, a full disk or a run that cannot fit in memory is
 a one-line :class:`PreflightError` naming the field as the user wrote it (``--output``,
 ``output.path``, ``simulation.sensor_resolution``), the value and what is accepted,
 instead of a traceback after hours of work. Plain Python and NumPy: no Numba, no h5py.

@@ -161,13 +161,69 @@ def _write_material(h5, material: dict) -> None:
         group.attrs[key] = _material_attr(key, value)
 
 
+def _root_attributes(sensor, config: dict, seed, block_size, max_bounces, compute_time_s, compile_time_s,
+                     run_attrs) -> dict:
+    """The root attributes of a table: format, conventions, sensor, run metadata (docs/hdf5-format.md)."""
+    config_json = json.dumps(config, sort_keys=True, default=_json_fallback)
+    root_attrs = {
+        "format": schema.FORMAT_NAME, "format_version": np.int64(schema.FORMAT_VERSION),
+        "description": schema.ROOT_DESCRIPTION, "conventions": schema.CONVENTIONS,
+        "vcavity_version": _VCAVITY_VERSION,
+        "created_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
+        "sensor_partition": str(sensor.partition),
+        "sensor_resolution": np.int64(sensor.resolution), "n_cells": np.int64(sensor.n_cells),
+        "seed": _int_attr("seed", seed), "block_size": _int_attr("block_size", block_size),
+        "max_bounces": _int_attr("max_bounces", max_bounces), "config": config_json,
+        "compute_time_s": float(compute_time_s), "compile_time_s": float(compile_time_s),
+        "estimator": "analog", "target_error": float("nan"),
+    }
+    for key, value in (run_attrs or {}).items():
+        root_attrs[key] = value if isinstance(value, str) else float(value)
+    return root_attrs
+
+
+def _analog_values(theta_i, phi_i, theta_i_deg, phi_i_deg, order, counts, paths, exits, lost_paths,
+                   max_bounces_seen, unbinned, sensor) -> dict:
+    """Every dataset of a table, as the analog estimator of the integer counts gives it
+    (physics.md sec. 6); another estimator's values replace some of them (:func:`_tabulated`)."""
+    proj_solid_angle = np.asarray(sensor.cell_projected_solid_angle, dtype=np.float64)
+    paths_f = paths.astype(np.float64)
+    counts_f = counts.astype(np.float64)
+    denominator = paths_f[:, None, None] * proj_solid_angle  # N_paths Ω⊥_c (physics.md sec. 6)
+    values = {
+        "incidence": np.arange(theta_i.size, dtype=np.int64), "order": order,
+        "cell": np.arange(sensor.n_cells, dtype=np.int64),
+        "xyz": np.array([b"x", b"y", b"z"], dtype="S1"),
+        "theta_i": theta_i, "phi_i": phi_i, "theta_i_deg": theta_i_deg, "phi_i_deg": phi_i_deg,
+        "theta_o": np.asarray(sensor.cell_theta, dtype=np.float64),
+        "phi_o": np.asarray(sensor.cell_phi, dtype=np.float64),
+        "brdf": counts_f / denominator,
+        # Multinomial standard error of a cell count: sqrt(n p (1 - p)), p = counts / paths.
+        "brdf_stderr": np.sqrt(counts_f * (1.0 - counts_f / paths_f[:, None, None])) / denominator,
+        "counts": counts,
+        "albedo": exits / paths_f[:, None],  # = Σ_c brdf Ω⊥_c, from integers (exact rounding)
+        "absorbed": lost_paths["absorbed_paths"] / paths_f,
+        "truncated": lost_paths["truncated_paths"] / paths_f,
+        "degenerate": lost_paths["degenerate_paths"] / paths_f,
+        "paths": paths, "max_bounces_seen": max_bounces_seen,
+        "order_source": np.zeros(order.size, np.int8), "unbinned_paths": unbinned,
+        "folded": np.zeros(theta_i.size, np.int8),
+        "relative_error": _analog_relative_error(counts, paths, order),
+        "target_reached": np.full(theta_i.size, -1, np.int8),
+        "cell_center": np.asarray(sensor.cell_center, dtype=np.float64),
+        "cell_solid_angle": np.asarray(sensor.cell_solid_angle, dtype=np.float64),
+        "cell_projected_solid_angle": proj_solid_angle,
+    }
+    return values
+
+
 def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
                 truncated_paths, degenerate_paths, max_bounces_seen, sensor,
                 material: dict, config: dict, seed: int, block_size: int,
                 max_bounces: int, compute_time_s: float = 0.0,
                 compile_time_s: float = 0.0, theta_i_deg=None, phi_i_deg=None,
                 unbinned_paths=None, tabulated=None, run_attrs=None, cancelled=None) -> None:
-    """Write a BRDF table (format v2) atomically.
+    """Write a BRDF table (format v3) atomically.
 
     Derived datasets come from the integer counts (physics.md sec. 6):
     ``brdf = counts / (paths Ω⊥_c)``, ``brdf_stderr = sqrt(counts (1 - counts/paths)) /
@@ -243,50 +299,10 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
                        sensor, material, unbinned)
     theta_i_deg = _degrees("theta_i_deg", theta_i_deg, theta_i)
     phi_i_deg = _degrees("phi_i_deg", phi_i_deg, phi_i)
-    config_json = json.dumps(config, sort_keys=True, default=_json_fallback)
-    root_attrs = {
-        "format": schema.FORMAT_NAME, "format_version": np.int64(schema.FORMAT_VERSION),
-        "description": schema.ROOT_DESCRIPTION, "conventions": schema.CONVENTIONS,
-        "vcavity_version": _VCAVITY_VERSION,
-        "created_utc": datetime.datetime.now(datetime.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
-        "sensor_partition": str(sensor.partition),
-        "sensor_resolution": np.int64(sensor.resolution), "n_cells": np.int64(sensor.n_cells),
-        "seed": _int_attr("seed", seed), "block_size": _int_attr("block_size", block_size),
-        "max_bounces": _int_attr("max_bounces", max_bounces), "config": config_json,
-        "compute_time_s": float(compute_time_s), "compile_time_s": float(compile_time_s),
-        "estimator": "analog", "target_error": float("nan"),
-    }
-    for key, value in (run_attrs or {}).items():
-        root_attrs[key] = value if isinstance(value, str) else float(value)
-
-    proj_solid_angle = np.asarray(sensor.cell_projected_solid_angle, dtype=np.float64)
-    paths_f = paths.astype(np.float64)
-    counts_f = counts.astype(np.float64)
-    denominator = paths_f[:, None, None] * proj_solid_angle  # N_paths Ω⊥_c (physics.md sec. 6)
-    values = {
-        "incidence": np.arange(theta_i.size, dtype=np.int64), "order": order,
-        "cell": np.arange(sensor.n_cells, dtype=np.int64),
-        "xyz": np.array([b"x", b"y", b"z"], dtype="S1"),
-        "theta_i": theta_i, "phi_i": phi_i, "theta_i_deg": theta_i_deg, "phi_i_deg": phi_i_deg,
-        "theta_o": np.asarray(sensor.cell_theta, dtype=np.float64),
-        "phi_o": np.asarray(sensor.cell_phi, dtype=np.float64),
-        "brdf": counts_f / denominator,
-        # Multinomial standard error of a cell count: sqrt(n p (1 - p)), p = counts / paths.
-        "brdf_stderr": np.sqrt(counts_f * (1.0 - counts_f / paths_f[:, None, None])) / denominator,
-        "counts": counts,
-        "albedo": exits / paths_f[:, None],  # = Σ_c brdf Ω⊥_c, from integers (exact rounding)
-        "absorbed": lost_paths["absorbed_paths"] / paths_f,
-        "truncated": lost_paths["truncated_paths"] / paths_f,
-        "degenerate": lost_paths["degenerate_paths"] / paths_f,
-        "paths": paths, "max_bounces_seen": max_bounces_seen,
-        "order_source": np.zeros(order.size, np.int8), "unbinned_paths": unbinned,
-        "folded": np.zeros(theta_i.size, np.int8),
-        "relative_error": _analog_relative_error(counts, paths, order),
-        "target_reached": np.full(theta_i.size, -1, np.int8),
-        "cell_center": np.asarray(sensor.cell_center, dtype=np.float64),
-        "cell_solid_angle": np.asarray(sensor.cell_solid_angle, dtype=np.float64),
-        "cell_projected_solid_angle": proj_solid_angle,
-    }
+    root_attrs = _root_attributes(sensor, config, seed, block_size, max_bounces, compute_time_s,
+                                  compile_time_s, run_attrs)
+    values = _analog_values(theta_i, phi_i, theta_i_deg, phi_i_deg, order, counts, paths, exits, lost_paths,
+                            max_bounces_seen, unbinned, sensor)
 
     if tabulated is not None:
         values.update(_tabulated(tabulated, values))

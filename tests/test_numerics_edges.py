@@ -1,4 +1,4 @@
-"""Targeted numerics review (issue 4): sampling at the ends of [0, 1) and of the parameter
+"""Numerics at the edges: sampling at the ends of [0, 1) and of the parameter
 ranges, Fresnel / r_e / r_i through eta -> 1 and at huge eta, the groove geometry at
 grazing light against exact rational arithmetic, binning at the pole, and float64
 throughout the walk. Deterministic checks (no false-positive rate).
@@ -65,7 +65,7 @@ def test_steepest_ggx_groove_and_huge_tangents():
 
 
 def test_stretched_slope_is_a_drop_in_for_the_kernel_disk_sampler():
-    # Kernel fix of the issue 4 report: the GGX disk sampler (ggx.sample_disk, which the
+    # The GGX disk sampler (ggx.sample_disk, which the
     # kernel inlines through the registry) calls stretched_slope(r/sqrt(s), a, b, alpha_x,
     # alpha_y); for ordinary roughness it is bitwise the same map, beyond it it stays finite.
     rng = np.random.default_rng(3)
