@@ -96,7 +96,7 @@ def test_open_table_imports_no_numba(tmp_path, which):
     path = V1_TABLE if which == "v1" else tmp_path / "t.h5"
     if which == "fresh":
         _write_small_table(path)
-    code = ("import vcavity, vcavity.io.summary\n"  # report.py formats what `info` prints
+    code = ("import vcavity, vcavity.io.summary\n"  # io/summary.py formats what `info` prints
             "print(vcavity.open_table(sys.argv[1]).format_version)\n")
     lines = _run_with_numba_spy(code, path, tmp_path)
     assert lines == ["1" if which == "v1" else str(FORMAT_VERSION), "numba imported by: None"]
