@@ -22,7 +22,7 @@ import numpy as np
 
 from vcavity._numba.jit import njit
 
-from vcavity.analytic.single_bounce import SingleBounceModel, gauss_legendre_unit
+from vcavity.analytic.single_bounce import SingleBounceModel, gauss_legendre_unit, squared_t_node
 from vcavity.analytic.terms import VCAVITY, g2, smith_lambda
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
@@ -70,9 +70,7 @@ def _specular_albedo(incident, kind, params, facet_kind, facet_data, masking, wa
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
     total = 0.0
     for a in range(t_nodes.shape[0]):
-        t = t_nodes[a]
-        u1 = 1.0 - (1.0 - t) * (1.0 - t)
-        jacobian = 2.0 * (1.0 - t) * t_weights[a] / n_u2
+        u1, jacobian = squared_t_node(t_nodes[a], t_weights[a], n_u2)
         for b in range(n_u2):
             hx, hy, hz = distributions.sample_normal(kind, u1, (b + 0.5) / n_u2, params)
             ih = ix * hx + iy * hy + iz * hz

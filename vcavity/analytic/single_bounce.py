@@ -76,6 +76,14 @@ def specular_projected(incident, outgoing, kind, params, facet_kind, facet_data,
     return out
 
 
+@njit(cache=True, inline="always")
+def squared_t_node(t, t_weight, n_u2):
+    """``u1 = 1 - (1 - t)^2`` and the weight ``2 (1 - t) w_t / n_u2`` of a node of the
+    product rule in ``(t, u2)`` (physics.md sec. 9): the substitution crowds the nodes
+    toward ``u1 = 1``, where the sampling map sends the grazing normals."""
+    return 1.0 - (1.0 - t) * (1.0 - t), 2.0 * (1.0 - t) * t_weight / n_u2
+
+
 @njit(cache=True)
 def body_nodes(incident, kind, params, facet_kind, facet_data, t_nodes, t_weights, n_u2):
     """Quadrature nodes of the body integral over ``m`` (IL eq. 12, physics.md sec. 9).
@@ -101,9 +109,7 @@ def body_nodes(incident, kind, params, facet_kind, facet_data, t_nodes, t_weight
     g1_i = np.empty(n_t * n_u2)
     count = 0
     for a in range(n_t):
-        t = t_nodes[a]
-        u1 = 1.0 - (1.0 - t) * (1.0 - t)
-        jacobian = 2.0 * (1.0 - t) * t_weights[a] / n_u2
+        u1, jacobian = squared_t_node(t_nodes[a], t_weights[a], n_u2)
         for b in range(n_u2):
             mx, my, mz = distributions.sample_normal(kind, u1, (b + 0.5) / n_u2, params)
             im = ix * mx + iy * my + iz * mz
