@@ -1,4 +1,4 @@
-"""What a new user hit (issue 10), each turned into a test: unsafe output paths, flags and
+"""What a new user hit, each turned into a test: unsafe output paths, flags and
 config fields out of range, memory and disk limits, Ctrl-C, a full disk, corrupt tables,
 stale temporary files.
 

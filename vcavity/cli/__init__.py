@@ -9,21 +9,30 @@ or disk, a write that failed) with a one-line message and no output file; 130 in
 from __future__ import annotations
 
 import argparse
-import math
 import signal
 import sys
 
-# Argument types, the one-line error format and the run help live in cli_args.py; the
-# names are imported here too because cli_sweep.py uses them from vcavity.cli.
-from vcavity.cli.common import EXIT_BAD_INPUT, _PATHS_MAX, _count, _fraction, _Parser, _seed, run_epilog
-
-EXIT_OK = 0
-EXIT_INTERRUPTED = 130
+from vcavity.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_TEST_FAILED,
+    PATHS_MAX,
+    Parser,
+    count_arg,
+    error,
+    first_line,
+    fraction_arg,
+    open_table_or_error,
+    run_epilog,
+    seconds_arg,
+    seed_arg,
+)
 
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``vcavity`` argument parser (exposed for documentation and tests)."""
-    parser = _Parser(
+    parser = Parser(
         prog="vcavity",
         description="Monte-Carlo simulation of light in microfacet V-cavities: "
         "BRDF tables per bounce order (f1, f2, ..., f_inf) with error bars.",
@@ -31,7 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     from vcavity._version import __version__
 
     parser.add_argument("--version", action="version", version=f"vcavity {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=Parser)
     sub.required = True
 
     run = sub.add_parser(
@@ -48,25 +57,25 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--overwrite", action="store_true",
                      help="replace an existing table (atomically, only when the run completes); without it an "
                      "existing output is refused before anything runs")
-    run.add_argument("--paths", type=_count(1, _PATHS_MAX), metavar="N",
+    run.add_argument("--paths", type=count_arg(1, PATHS_MAX), metavar="N",
                      help="paths per incident direction, e.g. 1e6 (overrides the config)")
-    run.add_argument("--threads", type=_count(1, 4096), metavar="T", help="worker threads (default: all cores)")
-    run.add_argument("--seed", type=_seed, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
-    run.add_argument("--chunk-blocks", type=_count(1, 2**40), metavar="B",
+    run.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    run.add_argument("--seed", type=seed_arg, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
+    run.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                      help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
     run.add_argument("--estimator", choices=("analog", "exact-f1", "paper"),
                      help="analog: every order simulated (default); exact-f1: f1 from the exact V-cavity "
                      "single-bounce model, orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
                      "on a facet, weighted by its lit projected area) (overrides [simulation] estimator)")
-    run.add_argument("--target-error", type=_fraction, metavar="E",
+    run.add_argument("--target-error", type=fraction_arg, metavar="E",
                      help="run each direction until the energy-weighted mean relative standard error of "
                      "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths")
-    run.add_argument("--max-paths", type=_count(1, _PATHS_MAX), metavar="N",
+    run.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
                      help="with --target-error: the most paths per direction (default: the config's paths)")
     run.add_argument("--resume", action="store_true",
                      help="continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same "
                      "config and seed; the table equals an uninterrupted run's, bit for bit)")
-    run.add_argument("--checkpoint-every", type=_seconds, default=60.0, metavar="S",
+    run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
                      help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
                      "saves it too and exits 130; removed once the table is written")
     run.add_argument("--dask", metavar="ADDRESS",
@@ -91,9 +100,9 @@ def build_parser() -> argparse.ArgumentParser:
                          help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
                          "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1)")
     compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
-    compare.add_argument("--significance", type=_fraction, default=0.01, metavar="A",
+    compare.add_argument("--significance", type=fraction_arg, default=0.01, metavar="A",
                          help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
-    compare.add_argument("--nodes", type=_count(1, 1024), default=64, metavar="N",
+    compare.add_argument("--nodes", type=count_arg(1, 1024), default=64, metavar="N",
                          help="body-integral nodes per axis of the model (accuracy control, default 64, "
                          "at most 1024: the cost grows as N^2 per cell)")
     compare.add_argument("--lambda-fit", action="store_true",
@@ -108,21 +117,6 @@ def build_parser() -> argparse.ArgumentParser:
 
     add_export_parser(sub)
     return parser
-
-
-def _seconds(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0")
-    return value
-
-
-def _error(message: str) -> int:
-    print(f"vcavity: error: {message}", file=sys.stderr)
-    return EXIT_BAD_INPUT
 
 
 def _preflight(args, cfg):
@@ -173,7 +167,7 @@ def _cmd_run(args) -> int:
         overrides = {name: value for name, value in (("estimator", args.estimator),
                      ("target_error", args.target_error), ("max_paths", args.max_paths)) if value is not None}
         if args.max_paths is not None and args.target_error is None and cfg.target_error is None:
-            return _error(f"--max-paths = {args.max_paths}: applies only with --target-error "
+            return error(f"--max-paths = {args.max_paths}: applies only with --target-error "
                           "(otherwise --paths is the number of paths)")
         if overrides:
             try:
@@ -184,13 +178,13 @@ def _cmd_run(args) -> int:
                     raise
                 raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
     except config_mod.ConfigError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     from vcavity.io.preflight import PreflightError
 
     try:
         output = _preflight(args, cfg)
     except PreflightError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     out = output.path
 
     from vcavity.io.writer import write_result
@@ -207,7 +201,7 @@ def _cmd_run(args) -> int:
         state = runner.load_state(sim, out, args.resume or False)
     except checkpoint.CheckpointError as exc:
         if not (args.overwrite and not args.resume and "unfinished run exists" in str(exc)):
-            return _error(str(exc))
+            return error(str(exc))
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
     from vcavity.simulate.interrupts import raise_if_pending
@@ -220,7 +214,7 @@ def _cmd_run(args) -> int:
     try:
         model_s = sim.prepare_models()
     except ModelNotApplicable as exc:
-        return _error(f"--estimator = exact-f1: {str(exc).splitlines()[0]}")
+        return error(f"--estimator = exact-f1: {first_line(exc)}")
     if cfg.estimator == "exact-f1":
         print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
     executor = None
@@ -231,7 +225,7 @@ def _cmd_run(args) -> int:
             parse_address(args.dask)
             executor = DaskExecutor(args.dask)
         except (ValueError, ImportError, OSError) as exc:
-            return _error(f"--dask = {args.dask!r}: {str(exc).splitlines()[0] if str(exc) else type(exc).__name__}")
+            return error(f"--dask = {args.dask!r}: {first_line(exc)}")
     cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
 
     def write(result, cancelled):
@@ -241,8 +235,8 @@ def _cmd_run(args) -> int:
         status, result = runner.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
                                              quiet=args.quiet, executor=executor)
     except OSError as exc:
-        reason = exc.strerror or (str(exc).splitlines() or [type(exc).__name__])[0]
-        return _error(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
+        reason = exc.strerror or first_line(exc)
+        return error(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
                       "nothing was written and an existing file is unchanged; the checkpoint keeps the run")
     finally:
         if executor is not None:
@@ -253,11 +247,11 @@ def _cmd_run(args) -> int:
     traced = int(result.paths.sum())
     rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
     if cfg.target_error is not None:
-        for d, paths, error, reached in zip(cfg.incidence, result.paths, result.relative_error,
+        for d, paths, rel_error, reached in zip(cfg.incidence, result.paths, result.relative_error,
                                             result.target_reached):
             state = "reached" if reached else "NOT reached: path cap hit"
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
-                  f"(error {error:.3g} after {int(paths):,} paths)")
+                  f"(error {rel_error:.3g} after {int(paths):,} paths)")
     print(f"wrote {out}")
     print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
           f"kernel compile/load {result.compile_time_s:.2f} s")
@@ -285,17 +279,13 @@ def _cmd_info(args) -> int:
         try:
             print(describe_checkpoint(args.table))
         except (OSError, KeyError, ValueError) as exc:
-            return _error(f"checkpoint {args.table!r}: cannot read it ({str(exc).splitlines()[0] if str(exc) else exc})")
+            return error(f"checkpoint {args.table!r}: cannot read it ({first_line(exc, '')})")
         return EXIT_OK
-    from vcavity.io.table import TableFormatError, open_table
     from vcavity.io.summary import format_summary
 
-    try:
-        table = open_table(args.table)
-    except FileNotFoundError:
-        return _error(f"table {args.table!r}: no such file")
-    except (TableFormatError, OSError) as exc:
-        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    table = open_table_or_error(args.table)
+    if table is None:
+        return EXIT_BAD_INPUT
     print(format_summary(table, verbose=True))
     return EXIT_OK
 
@@ -303,35 +293,30 @@ def _cmd_info(args) -> int:
 def _cmd_compare(args) -> int:
     from vcavity.analytic.single_bounce import ModelNotApplicable
     from vcavity.compare import compare_table, format_report
-    from vcavity.io.table import TableFormatError, open_table
-
     from vcavity.io.preflight import PreflightError, check_plots_folder
 
     if not 0.0 < args.significance < 1.0:
-        return _error(f"--significance = {args.significance}: must be in (0, 1)")
+        return error(f"--significance = {args.significance}: must be in (0, 1)")
     if args.plots is not None:
         try:
             check_plots_folder(args.plots)
         except PreflightError as exc:
-            return _error(str(exc))
-    try:
-        table = open_table(args.table)
-    except FileNotFoundError:
-        return _error(f"table {args.table!r}: no such file")
-    except (TableFormatError, OSError) as exc:
-        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+            return error(str(exc))
+    table = open_table_or_error(args.table)
+    if table is None:
+        return EXIT_BAD_INPUT
     if 1 in table.order and table.is_analytic(1):
-        return _error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
+        return error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
                       "there is no simulated f1 to test; run with --estimator analog to validate the walk")
     try:
         report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
                                lambda_fit=args.lambda_fit, plots_dir=args.plots)
     except ModelNotApplicable as exc:
-        return _error(str(exc).splitlines()[0])
+        return error(first_line(exc))
     print(format_report(report))
     if args.plots:
         print(f"plots written to {args.plots}")
-    return EXIT_OK if report.passed else 1
+    return EXIT_OK if report.passed else EXIT_TEST_FAILED
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from vcavity.cli.common import EXIT_OK, error, first_line
+
 
 def _epilog() -> str:
     from vcavity.export import FORMAT_MODULES, format_module
@@ -52,7 +54,6 @@ def cmd_export(args) -> int:
     from pathlib import Path
 
     from vcavity.io import preflight
-    from vcavity.cli import EXIT_OK, _error
     from vcavity.export import ExportRefused, ExportRequest, export, format_module
     from vcavity.io.sweep_table import is_sweep_file
     from vcavity.plots import PlotError, parse_order
@@ -61,23 +62,23 @@ def cmd_export(args) -> int:
     try:
         module = format_module(args.format)
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     try:
         order = parse_order(args.order)
     except PlotError:
-        return _error(f"--order = {args.order!r}: accepted are 0, inf or f_inf (all orders) and 1, 2, ... "
+        return error(f"--order = {args.order!r}: accepted are 0, inf or f_inf (all orders) and 1, 2, ... "
                       "(or f1, f2, ...)")
     if args.theta_i is not None and args.format != "csv":
-        return _error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
+        return error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
                       f"(--format {args.format} exports every incident direction)")
     source_path = Path(args.table)
     if not source_path.exists():
-        return _error(f"table {args.table!r}: no such file")
+        return error(f"table {args.table!r}: no such file")
     if not source_path.is_file():
-        return _error(f"table {args.table!r}: not a regular file")
+        return error(f"table {args.table!r}: not a regular file")
     example = f"'out{module.SUFFIX}'"
     if args.output == "" or args.output.endswith(("/", os.sep)) or Path(args.output).name in ("", ".", ".."):
-        return _error(f"FILE = {args.output!r}: must name a file, such as {example}")
+        return error(f"FILE = {args.output!r}: must name a file, such as {example}")
     out = preflight.Output(Path(args.output), "FILE", args.output)
     try:
         if out.path.is_file() and os.path.samefile(out.path, source_path):
@@ -85,18 +86,18 @@ def cmd_export(args) -> int:
         preflight.check_output(out, None, args.overwrite)
         preflight.probe_output(out)
     except preflight.PreflightError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     try:
         source = _open_source(source_path, args.table, module, is_sweep_file(source_path))
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i)
     try:
         export(source, args.format, request, out.path)
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     except OSError as exc:
-        return _error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+        return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
     print(f"wrote {out.path} ({args.format}, {order_name(order)})")
     return EXIT_OK
 
@@ -114,7 +115,7 @@ def _open_source(path, shown: str, module, is_sweep: bool):
         try:
             return open_sweep(path)
         except (ValueError, OSError, KeyError) as exc:
-            raise ExportRefused(f"sweep {shown!r}: cannot read it ({_first_line(exc)})") from None
+            raise ExportRefused(f"sweep {shown!r}: cannot read it ({first_line(exc)})") from None
     if is_sweep:
         raise ExportRefused(f"table {shown!r}: is a sweep file; --format {module.NAME} exports a table "
                             "of one run (vcavity run)")
@@ -123,10 +124,4 @@ def _open_source(path, shown: str, module, is_sweep: bool):
     try:
         return open_table(path)
     except (TableFormatError, OSError) as exc:
-        raise ExportRefused(_first_line(exc) or f"table {shown!r}: cannot read it") from None
-
-
-def _first_line(exc) -> str:
-    text = str(exc)
-    return text.splitlines()[0] if text else type(exc).__name__
-
+        raise ExportRefused(first_line(exc)) from None

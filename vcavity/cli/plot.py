@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import argparse
 
+from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, error, open_table_or_error
+
 _PLOT_EPILOG = """\
 kinds:
   slice   in-plane slices (plane of incidence; theta_o signed, > 0 on the specular
@@ -64,29 +66,16 @@ def add_plot_parser(sub) -> None:
 
 def cmd_plot(args) -> int:
     """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file."""
-    from vcavity.cli import EXIT_OK, _error
-
-    from pathlib import Path
-
-    from vcavity.io.sweep_table import SweepFormatError, is_sweep_file, open_sweep
-    from vcavity.io.table import TableFormatError, open_table
     from vcavity.plots import PlotError, check_request, render
 
-    try:
-        # a sweep file (vcavity sweep) or a table; only regular files (h5py blocks on a FIFO)
-        if Path(args.table).is_file() and is_sweep_file(args.table):
-            table = open_sweep(args.table)
-        else:
-            table = open_table(args.table)
-    except FileNotFoundError:
-        return _error(f"table {args.table!r}: no such file")
-    except (TableFormatError, SweepFormatError, OSError) as exc:
-        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    table = open_table_or_error(args.table, sweeps=True)  # a table or a sweep file (vcavity sweep)
+    if table is None:
+        return EXIT_BAD_INPUT
     try:
         request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
                                 orders=args.order, scale=args.scale, models=not args.no_models)
     except PlotError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     render(table, request)
     print(f"wrote {request.output}")
     return EXIT_OK

@@ -10,6 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line
+
 _SWEEP_EPILOG = """\
 sweep file (TOML): a run config ([material], [incidence], [simulation], [output]) as the
 base, plus a [sweep] table of grid axes, each a list of values:
@@ -43,10 +45,8 @@ def add_sweep_parser(sub) -> None:
                        help="continue the sweep in the existing output: run only the points not done "
                        "(refused if it holds another sweep)")
     sweep.add_argument("--overwrite", action="store_true", help="replace an existing output")
-    from vcavity.cli import _count
-
-    sweep.add_argument("--threads", type=_count(1, 4096), metavar="T", help="worker threads (default: all cores)")
-    sweep.add_argument("--chunk-blocks", type=_count(1, 2**40), metavar="B",
+    sweep.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    sweep.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                        help="RNG blocks of 4096 paths per kernel call (does not change results)")
     sweep.add_argument("--dask", metavar="ADDRESS",
                        help="run each point's work units on a Dask cluster: a scheduler address "
@@ -56,15 +56,13 @@ def add_sweep_parser(sub) -> None:
 
 def cmd_sweep(args) -> int:
     """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``."""
-    from vcavity.cli import EXIT_INTERRUPTED, _error
-
     if args.dask is not None:
         from vcavity.simulate.dask import parse_address
 
         try:
             parse_address(args.dask)
         except ValueError as exc:
-            return _error(str(exc))
+            return error(str(exc))
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -74,7 +72,7 @@ def cmd_sweep(args) -> int:
         output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
                                                    resume=args.resume, threads=args.threads)
     except (sweep_mod.SweepError, PreflightError) as exc:
-        return _error(str(exc))
+        return error(str(exc))
     if note:
         print(f"vcavity: {note}", file=sys.stderr)
     executor = None
@@ -84,7 +82,7 @@ def cmd_sweep(args) -> int:
         try:
             executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
         except ImportError as exc:
-            return _error(f"--dask = {args.dask!r}: {exc}")
+            return error(f"--dask = {args.dask!r}: {exc}")
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
@@ -103,7 +101,6 @@ def cmd_sweep(args) -> int:
 def _trace(args, spec, output, data, executor, total) -> int:
     from vcavity.sweep import run as sweep_run
     from vcavity.analytic.single_bounce import ModelNotApplicable
-    from vcavity.cli import EXIT_OK, _error
     from vcavity.simulate.interrupts import DeferredInterrupt
     from vcavity.io.sweep_table import open_sweep
     from vcavity.io.sweep_summary import format_sweep_summary
@@ -127,11 +124,11 @@ def _trace(args, spec, output, data, executor, total) -> int:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
                           executor=executor, on_progress=progress, on_point=lambda point, d: interrupt.check())
         except ModelNotApplicable as exc:
-            return _error(f"simulation.estimator = 'exact-f1': {str(exc).splitlines()[0]} "
+            return error(f"simulation.estimator = 'exact-f1': {first_line(exc)} "
                           f"({data.n_done()} point(s) done are in {output.path})")
         except OSError as exc:
-            reason = exc.strerror or (str(exc).splitlines() or [type(exc).__name__])[0]
-            return _error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
+            reason = exc.strerror or first_line(exc)
+            return error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
                           "the file holds the points finished before")
         finally:
             if bar is not None:
@@ -143,14 +140,13 @@ def _trace(args, spec, output, data, executor, total) -> int:
 
 def cmd_sweep_info(args) -> int:
     """``vcavity info`` on a sweep file."""
-    from vcavity.cli import EXIT_OK, _error
     from vcavity.io.sweep_table import SweepFormatError, open_sweep
     from vcavity.io.sweep_summary import format_sweep_summary
 
     try:
         sweep = open_sweep(args.table)
     except (FileNotFoundError, SweepFormatError) as exc:
-        return _error(str(exc))
+        return error(str(exc))
     print(format_sweep_summary(sweep))
     return EXIT_OK
 
