@@ -1,4 +1,4 @@
-"""``vcavity export``: a table (or a sweep) in a format renderers read (wired into :mod:`vcavity.cli`).
+"""``vcavity export``: a table (or a sweep) in a format renderers read.
 
 Exit status: 0 written; 2 bad input or a source the format cannot represent (one line, the
 output untouched, no file left behind); 130 interrupted.
@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 
 from vcavity.cli.common import EXIT_OK, error, first_line
+
+NAME = "export"
 
 
 def _epilog() -> str:
@@ -28,14 +30,21 @@ def _epilog() -> str:
     return "\n".join(lines)
 
 
-def add_export_parser(sub) -> None:
-    """The ``export`` subcommand's arguments."""
-    export = sub.add_parser(
-        "export", help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
+def add_parser(subparsers) -> None:
+    """Add the ``export`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    export = subparsers.add_parser(
+        NAME, help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
         description="Convert a table of `vcavity run` (or, for albedo-lut, a sweep file of "
         "`vcavity sweep`) into a file another program reads. Every check runs before anything "
         "is written; a table the format cannot represent is refused in one line (exit 2).",
         epilog_factory=_epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    export.set_defaults(handler=command)
     export.add_argument("table", metavar="IN.h5", help="a table (vcavity run) or a sweep file (vcavity sweep)")
     export.add_argument("output", metavar="FILE", help="the file to write")
     export.add_argument("--format", required=True, metavar="FORMAT",
@@ -48,8 +57,19 @@ def add_export_parser(sub) -> None:
     export.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
 
 
-def cmd_export(args) -> int:
-    """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``."""
+def command(args: argparse.Namespace) -> int:
+    """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``export`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     import os
     from pathlib import Path
 

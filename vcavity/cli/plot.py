@@ -1,4 +1,4 @@
-"""``vcavity plot``: draw a table or a sweep file (wired into :mod:`vcavity.cli`).
+"""``vcavity plot``: draw a table or a sweep file.
 
 Exit status: 0 written; 2 bad input (unknown kind, an order or theta_i the source lacks,
 an unusable output path), one line, reported before anything is computed; 130 interrupted.
@@ -9,6 +9,8 @@ from __future__ import annotations
 import argparse
 
 from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, error, open_table_or_error
+
+NAME = "plot"
 
 _PLOT_EPILOG = """\
 kinds:
@@ -37,15 +39,22 @@ scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig
 """
 
 
-def add_plot_parser(sub) -> None:
-    """The ``plot`` subcommand's arguments."""
-    plot = sub.add_parser(
-        "plot", help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
+def add_parser(subparsers) -> None:
+    """Add the ``plot`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    plot = subparsers.add_parser(
+        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
         "(albedo against roughness) (PNG, PDF, SVG)",
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
         "folder) is a one-line error with exit status 2, reported before anything is computed.",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    plot.set_defaults(handler=command)
     plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run, or a sweep file "
                       "written by vcavity sweep")
     plot.add_argument("--kind", metavar="KIND",
@@ -64,8 +73,19 @@ def add_plot_parser(sub) -> None:
                       help="slice: leave out the analytic models (they compile Numba code on first use)")
 
 
-def cmd_plot(args) -> int:
-    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file."""
+def command(args: argparse.Namespace) -> int:
+    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``plot`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from vcavity.plots import PlotError, check_request, render
 
     table = open_table_or_error(args.table, sweeps=True)  # a table or a sweep file (vcavity sweep)

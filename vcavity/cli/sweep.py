@@ -1,4 +1,4 @@
-"""``vcavity sweep`` and ``vcavity info`` on a sweep file (wired into :mod:`vcavity.cli`).
+"""``vcavity sweep``: run a grid of configs into one HDF5 file.
 
 Exit status as for ``run``: 0 done, 2 bad input (one line naming the field or flag, no
 file written or changed), 130 interrupted (finished points stay in the file; ``--resume``
@@ -11,6 +11,8 @@ import argparse
 import sys
 
 from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line
+
+NAME = "sweep"
 
 _SWEEP_EPILOG = """\
 sweep file (TOML): a run config ([material], [incidence], [simulation], [output]) as the
@@ -31,13 +33,20 @@ docs/sweeps.md; example: runs/sweep_roughness_eta.toml
 """
 
 
-def add_sweep_parser(sub) -> None:
-    """The ``sweep`` subcommand's arguments."""
-    sweep = sub.add_parser(
-        "sweep", help="run a grid of configs (a sweep file) into one HDF5 file",
+def add_parser(subparsers) -> None:
+    """Add the ``sweep`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    sweep = subparsers.add_parser(
+        NAME, help="run a grid of configs (a sweep file) into one HDF5 file",
         description="Simulate every point of a parameter grid and write the tables into one HDF5 "
         "file with the grid axes as leading dimensions.",
         epilog=_SWEEP_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sweep.set_defaults(handler=command)
     sweep.add_argument("sweep", metavar="SWEEP.toml", help="sweep file: a run config plus a [sweep] table")
     sweep.add_argument("-o", "--output", metavar="OUT.h5",
                        help="output file (default: [output].path, else SWEEP with .h5)")
@@ -54,8 +63,19 @@ def add_sweep_parser(sub) -> None:
     sweep.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
-def cmd_sweep(args) -> int:
-    """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``."""
+def command(args: argparse.Namespace) -> int:
+    """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``sweep`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     if args.dask is not None:
         from vcavity.simulate.dask import parse_address
 
@@ -99,6 +119,7 @@ def cmd_sweep(args) -> int:
 
 
 def _trace(args, spec, output, data, executor, total) -> int:
+    """Run the points not done yet, Ctrl-C deferred to between kernel calls and writes."""
     from vcavity.sweep import run as sweep_run
     from vcavity.analytic.single_bounce import ModelNotApplicable
     from vcavity.simulate.interrupts import DeferredInterrupt
@@ -136,19 +157,3 @@ def _trace(args, spec, output, data, executor, total) -> int:
     print(f"wrote {output.path}")
     print(format_sweep_summary(open_sweep(output.path)))
     return EXIT_OK
-
-
-def cmd_sweep_info(args) -> int:
-    """``vcavity info`` on a sweep file."""
-    from vcavity.io.sweep_table import SweepFormatError, open_sweep
-    from vcavity.io.sweep_summary import format_sweep_summary
-
-    try:
-        sweep = open_sweep(args.table)
-    except (FileNotFoundError, SweepFormatError) as exc:
-        return error(str(exc))
-    print(format_sweep_summary(sweep))
-    return EXIT_OK
-
-
-__all__ = ["add_sweep_parser", "cmd_sweep", "cmd_sweep_info"]
