@@ -14,11 +14,10 @@ this package, so a new subcommand is a new module plus one entry in :data:`COMMA
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 
 from vcavity.cli import compare, export, info, plot, run, sweep
-from vcavity.cli.common import EXIT_INTERRUPTED, Parser
+from vcavity.cli.common import EXIT_INTERRUPTED, Interrupted, Parser
 
 #: The subcommands, in the order ``vcavity --help`` lists them.
 COMMANDS = (run, info, compare, plot, sweep, export)
@@ -53,6 +52,8 @@ def main(argv: list[str] | None = None) -> int:
 
     Ctrl-C anywhere (compiling, tracing, writing, comparing) ends with one line on stderr
     and exit status 130, never a traceback; ``run`` leaves no table and an old one untouched.
+    A command that knows what the interrupt left behind raises
+    :class:`~vcavity.cli.common.Interrupted` saying so; the line then ends with that.
 
     Parameters
     ----------
@@ -70,7 +71,7 @@ def main(argv: list[str] | None = None) -> int:
     args = argparse.Namespace()
     interrupts.reset()
     interrupts.install_main_handler()
-    previous_hook = sys.unraisablehook
+    restored_hook = sys.unraisablehook
     try:
         build_parser().parse_args(argv, namespace=args)
         status = args.handler(args)
@@ -84,20 +85,19 @@ def main(argv: list[str] | None = None) -> int:
             raise
         # An interrupt inside Numba's compiler leaves half-built llvmlite objects whose
         # destructors complain at exit ("Exception ignored in ... ObjectRef.__del__"):
-        # the process is ending on purpose, so such shutdown noise is not reported.
-        sys.unraisablehook = lambda unraisable: None
-        previous_hook = sys.unraisablehook
-        if getattr(args, "table_written", None) is not None:
-            print(f"vcavity: interrupted; the table was written: {args.table_written}", file=sys.stderr)
-        elif getattr(args, "command", None) == "run":
-            print("vcavity: interrupted; no table written", file=sys.stderr)
-        else:
-            print("vcavity: interrupted", file=sys.stderr)
+        # the process is ending on purpose, so such shutdown noise is not reported: the
+        # silent hook stays installed after main returns, when those destructors run.
+        sys.unraisablehook = restored_hook = _ignore_unraisable
+        outcome = f"; {exc.outcome}" if isinstance(exc, Interrupted) else ""
+        print(f"vcavity: interrupted{outcome}", file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
-        sys.unraisablehook = previous_hook
-        if signal.getsignal(signal.SIGINT) is interrupts._main_handler:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
+        sys.unraisablehook = restored_hook
+        interrupts.uninstall_main_handler()
+
+
+def _ignore_unraisable(unraisable) -> None:
+    """``sys.unraisablehook`` after an interrupt: report nothing."""
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -3,16 +3,26 @@
 Exit status: 0 written; 2 bad input (config, flags, output path, not enough memory or
 disk, model not applicable, a write that failed), one line and no output file; 130
 interrupted (the checkpoint keeps the run; ``--resume`` continues it).
+
+The command is a pipeline of steps, each of which either returns what the next needs or
+raises :class:`~vcavity.cli.common.BadInput`: :func:`read_config` (config and flag
+overrides), :func:`preflight` (every check that can fail, before compiling),
+:func:`prepare` (the simulation, a resumed state, the compiled kernel and models),
+:func:`trace_and_write` (progress, checkpoints, Ctrl-C) and :func:`report`.
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+from typing import TYPE_CHECKING, NamedTuple
 
 from vcavity.cli.common import (
+    EXIT_INTERRUPTED,
     EXIT_OK,
     PATHS_MAX,
+    BadInput,
+    Interrupted,
     count_arg,
     error,
     first_line,
@@ -21,6 +31,12 @@ from vcavity.cli.common import (
     seconds_arg,
     seed_arg,
 )
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from vcavity.config import RunConfig
+    from vcavity.simulate.pipeline import RunResult
 
 NAME = "run"
 
@@ -76,43 +92,103 @@ def add_parser(subparsers) -> None:
     run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
-def _preflight(args, cfg):
-    """Every check of a run that can fail, before compiling or tracing (vcavity/io/preflight.py).
+class Written(NamedTuple):
+    """A finished run: the table's path, the run's result and the config it ran."""
 
-    Returns the :class:`~vcavity.io.preflight.Output`; raises ``PreflightError`` (one line).
+    path: Path
+    result: RunResult
+    config: RunConfig
+
+
+def command(args: argparse.Namespace) -> int:
+    """``vcavity run [CONFIG.toml] [-o OUT.h5] ...``: simulate, write the table, summarise it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+
+    Raises
+    ------
+    Interrupted
+        On Ctrl-C, saying whether the table was written (``main`` reports it).
     """
-    import numba
+    from vcavity.simulate import interrupts
 
-    from vcavity.io import preflight
-    from vcavity.sensor.grid import EqualAreaSensor
+    written = None
+    try:
+        try:
+            status, written = simulate(args)
+        except BadInput as exc:
+            status = error(exc)
+        if written is not None:
+            report(written)
+        if status != EXIT_INTERRUPTED:
+            interrupts.raise_if_pending()  # a Ctrl-C something swallowed: reported below
+        return status
+    except BaseException as exc:
+        # after a swallowed SIGINT, what fails next is a consequence of the interrupt
+        if not (interrupts.is_interrupt(exc) or interrupts.pending()):
+            raise
+        outcome = f"the table was written: {written.path}" if written is not None else "no table written"
+        raise Interrupted(outcome) from exc
 
-    out = preflight.resolve_output(args.output, cfg.output, args.config)
-    from vcavity.io.checkpoint import checkpoint_path
 
-    resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
-    preflight.check_output(out, args.config, args.overwrite or resuming)
-    if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
-        raise preflight.PreflightError(f"--threads = {args.threads}: must be between 1 and "
-                                       f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
-    n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
-    preflight.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
-    removed = preflight.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
-    preflight.check_disk_space(out, preflight.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
-    if removed:
-        print(f"vcavity: removed {len(removed)} stale temporary file(s) of interrupted writes: "
-              f"{', '.join(p.name for p in removed)}", file=sys.stderr)
-    return out
+def simulate(args: argparse.Namespace) -> tuple[int, Written | None]:
+    """Every step of the run up to the written table.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    tuple of (int, Written or None)
+        The exit status and, when the table was written, what :func:`report` prints.
+
+    Raises
+    ------
+    BadInput
+        The first check that failed, as its one-line error.
+    """
+    cfg = read_config(args)
+    output = preflight(args, cfg)
+    sim, state = prepare(args, cfg, output.path)
+    status, result = trace_and_write(args, sim, cfg, output, state)
+    return status, Written(output.path, result, cfg) if status == EXIT_OK else None
 
 
 _FLAG_OF = {"simulation.estimator": "--estimator", "simulation.target_error": "--target-error",
             "simulation.max_paths": "--max-paths"}
 
 
-def command(args) -> int:
-    """``vcavity run [CONFIG.toml] [-o OUT.h5] ...``: simulate, write the table, summarise it."""
+def read_config(args: argparse.Namespace) -> RunConfig:
+    """The run config: CONFIG (or the built-in run) with the flags that override it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    RunConfig
+        The validated config.
+
+    Raises
+    ------
+    BadInput
+        A config error; one caused by a flag names the flag, not the config field.
+    """
     import dataclasses
 
-    from vcavity import config as config_mod
+    import vcavity.config as config_mod
 
     try:
         cfg = config_mod.load(args.config) if args.config else config_mod.default_config()
@@ -125,8 +201,8 @@ def command(args) -> int:
         overrides = {name: value for name, value in (("estimator", args.estimator),
                      ("target_error", args.target_error), ("max_paths", args.max_paths)) if value is not None}
         if args.max_paths is not None and args.target_error is None and cfg.target_error is None:
-            return error(f"--max-paths = {args.max_paths}: applies only with --target-error "
-                          "(otherwise --paths is the number of paths)")
+            raise BadInput(f"--max-paths = {args.max_paths}: applies only with --target-error "
+                           "(otherwise --paths is the number of paths)")
         if overrides:
             try:
                 cfg = cfg.replace(**overrides)
@@ -136,84 +212,187 @@ def command(args) -> int:
                     raise
                 raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
     except config_mod.ConfigError as exc:
-        return error(str(exc))
-    from vcavity.io.preflight import PreflightError
+        raise BadInput(str(exc)) from None
+    return cfg
+
+
+def preflight(args: argparse.Namespace, cfg):
+    """Every check of a run that can fail, before compiling or tracing (vcavity/io/preflight.py).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    cfg : RunConfig
+        The run config.
+
+    Returns
+    -------
+    vcavity.io.preflight.Output
+        Where the table goes, and the flag or field that named it.
+
+    Raises
+    ------
+    BadInput
+        The first failed check (output path, threads, memory, disk space).
+    """
+    import numba
+
+    from vcavity.io import preflight as checks
+    from vcavity.io.checkpoint import checkpoint_path
+    from vcavity.sensor.grid import EqualAreaSensor
 
     try:
-        output = _preflight(args, cfg)
-    except PreflightError as exc:
-        return error(str(exc))
-    out = output.path
+        out = checks.resolve_output(args.output, cfg.output, args.config)
+        resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
+        checks.check_output(out, args.config, args.overwrite or resuming)
+        if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
+            raise checks.PreflightError(f"--threads = {args.threads}: must be between 1 and "
+                                        f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
+        n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
+        checks.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
+        removed = checks.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
+        checks.check_disk_space(out, checks.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
+    except checks.PreflightError as exc:
+        raise BadInput(str(exc)) from None
+    if removed:
+        print(f"vcavity: removed {len(removed)} stale temporary file(s) of interrupted writes: "
+              f"{', '.join(p.name for p in removed)}", file=sys.stderr)
+    return out
 
-    from vcavity.io.writer import write_result
-    from vcavity.io.summary import format_summary
+
+def prepare(args: argparse.Namespace, cfg, out):
+    """The simulation, ready to trace: a resumed state, the compiled kernel, the f1 models.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    cfg : RunConfig
+        The run config.
+    out : pathlib.Path
+        The table's path (its checkpoint is ``out`` + ``.checkpoint``).
+
+    Returns
+    -------
+    tuple of (Simulation, state or None)
+        The simulation and the checkpointed state to continue from (None: from the start).
+
+    Raises
+    ------
+    BadInput
+        An unusable checkpoint, or exact-f1 on a material its model does not cover.
+    """
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.io import checkpoint
+    from vcavity.simulate import driver
+    from vcavity.simulate.interrupts import raise_if_pending
     from vcavity.simulate.pipeline import Simulation
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
     print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), "
           f"{sim.total_paths:,} paths, {sim.threads} thread(s)", file=sys.stderr)
-    from vcavity.io import checkpoint
-    from vcavity.simulate import driver as runner
-
     try:
-        state = runner.load_state(sim, out, args.resume or False)
+        state = driver.load_state(sim, out, args.resume or False)
     except checkpoint.CheckpointError as exc:
         if not (args.overwrite and not args.resume and "unfinished run exists" in str(exc)):
-            return error(str(exc))
+            raise BadInput(str(exc)) from None
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
-    from vcavity.simulate.interrupts import raise_if_pending
-
     raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
     print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
           file=sys.stderr)
-    from vcavity.analytic.single_bounce import ModelNotApplicable
-
     try:
         model_s = sim.prepare_models()
     except ModelNotApplicable as exc:
-        return error(f"--estimator = exact-f1: {first_line(exc)}")
+        raise BadInput(f"--estimator = exact-f1: {first_line(exc)}") from None
     if cfg.estimator == "exact-f1":
         print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
-    executor = None
-    if args.dask:
-        from vcavity.simulate.dask import DaskExecutor, parse_address
+    return sim, state
 
-        try:
-            parse_address(args.dask)
-            executor = DaskExecutor(args.dask)
-        except (ValueError, ImportError, OSError) as exc:
-            return error(f"--dask = {args.dask!r}: {first_line(exc)}")
+
+def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
+    """Trace the paths (progress bar, checkpoints, deferred Ctrl-C) and write the table.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    sim : Simulation
+        The prepared simulation.
+    cfg : RunConfig
+        The run config.
+    output : vcavity.io.preflight.Output
+        Where the table goes.
+    state : optional
+        The checkpointed state to continue from.
+
+    Returns
+    -------
+    tuple of (int, RunResult or None)
+        ``EXIT_OK`` and the result, or ``EXIT_INTERRUPTED`` (the driver said what it kept).
+
+    Raises
+    ------
+    BadInput
+        An unusable ``--dask`` address, or a table write that failed.
+    """
+    import dataclasses
+
+    from vcavity.io.writer import write_result
+    from vcavity.simulate import driver
+
+    executor = _executor(args.dask) if args.dask else None
+    out = output.path
     cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
 
     def write(result, cancelled):
         write_result(out, result, cfg, cancelled=cancelled)
 
     try:
-        status, result = runner.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
-                                             quiet=args.quiet, executor=executor)
+        return driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
+                                   quiet=args.quiet, executor=executor)
     except OSError as exc:
         reason = exc.strerror or first_line(exc)
-        return error(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
-                      "nothing was written and an existing file is unchanged; the checkpoint keeps the run")
+        raise BadInput(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
+                       "nothing was written and an existing file is unchanged; the checkpoint keeps the run") from None
     finally:
         if executor is not None:
             executor.close()
-    if status != EXIT_OK:
-        return status
-    args.table_written = out
+
+
+def _executor(address: str):
+    """The Dask executor of ``--dask ADDRESS``; raises BadInput when it cannot connect."""
+    from vcavity.simulate.dask import DaskExecutor, parse_address
+
+    try:
+        parse_address(address)
+        return DaskExecutor(address)
+    except (ValueError, ImportError, OSError) as exc:
+        raise BadInput(f"--dask = {address!r}: {first_line(exc)}") from None
+
+
+def report(written: Written) -> None:
+    """Print where the table went, the run's speed and the table's summary (stdout).
+
+    Parameters
+    ----------
+    written : Written
+        The finished run.
+    """
+    from vcavity.io.summary import format_summary
+    from vcavity.io.table import open_table
+
+    cfg, result = written.config, written.result
     traced = int(result.paths.sum())
     rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
     if cfg.target_error is not None:
         for d, paths, rel_error, reached in zip(cfg.incidence, result.paths, result.relative_error,
-                                            result.target_reached):
+                                                result.target_reached):
             state = "reached" if reached else "NOT reached: path cap hit"
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
                   f"(error {rel_error:.3g} after {int(paths):,} paths)")
-    print(f"wrote {out}")
+    print(f"wrote {written.path}")
     print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
           f"kernel compile/load {result.compile_time_s:.2f} s")
-    from vcavity.io.table import open_table
-
-    print(format_summary(open_table(out)))
-    return EXIT_OK
+    print(format_summary(open_table(written.path)))
