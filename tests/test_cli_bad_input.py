@@ -1,11 +1,12 @@
 """Parameters exactly at the edge of validity get the same one-line errors as any bad input:
-exit status 2, one line on stderr naming the field and value, nothing on
-stdout, no output file (not even a temporary one). Values just inside the edge run.
+exit status 2, one line on stderr naming the field and value, nothing on stdout, no
+output file (not even a temporary one). Values just inside the edge run.
 """
 
 import pytest
 
-from vcavity.cli import EXIT_BAD_INPUT, main
+from vcavity.cli import main
+from vcavity.cli.common import EXIT_BAD_INPUT
 from vcavity.io.table import open_table
 
 BASE_MATERIAL = {"distribution": '"beckmann"', "alpha": "0.5", "kd": "0.5", "eta": "1.5"}

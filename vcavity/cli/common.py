@@ -1,8 +1,12 @@
-"""Argument types, help text and error format of the ``vcavity`` command line.
+"""The vocabulary every ``vcavity`` subcommand shares: exit codes, errors, argument types.
 
 Every bad flag is one line, ``vcavity: error: --seed = 'x': must be an integer >= 0 and
 <= 18446744073709551615 (see vcavity run --help)``, exit status 2: the argument types
-below say what is accepted, :meth:`_Parser.error` names the flag (issue 10, item 5).
+below say what is accepted, :meth:`Parser.error` names the flag. Every other bad input
+(a config, an output path, an unreadable table) is one line too, printed by :func:`error`.
+
+This module imports nothing of ``vcavity`` at import time: ``vcavity info`` and
+``--help`` must not load the registries or Numba.
 """
 
 from __future__ import annotations
@@ -10,8 +14,106 @@ from __future__ import annotations
 import argparse
 import math
 import re
+import sys
 
+EXIT_OK = 0
+EXIT_TEST_FAILED = 1  # compare: the chi-square test rejected the model
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a Ctrl-C
+
+
+class BadInput(Exception):
+    """Input the command refuses; its message is the whole one-line error."""
+
+
+class Interrupted(KeyboardInterrupt):
+    """A Ctrl-C, raised on by a command that knows what it left behind.
+
+    Parameters
+    ----------
+    outcome : str
+        Words after ``vcavity: interrupted; ``, e.g. ``"no table written"``.
+    """
+
+    def __init__(self, outcome: str):
+        super().__init__(outcome)
+        self.outcome = outcome
+
+
+def error(message) -> int:
+    """Print the one-line error ``vcavity: error: MESSAGE`` on stderr.
+
+    Parameters
+    ----------
+    message : str or BadInput
+        What was wrong, naming the flag, field or file.
+
+    Returns
+    -------
+    int
+        :data:`EXIT_BAD_INPUT`, the command's exit status.
+    """
+    print(f"vcavity: error: {message}", file=sys.stderr)
+    return EXIT_BAD_INPUT
+
+
+def first_line(exc: BaseException, fallback: str | None = None) -> str:
+    """The first line of an exception's message, for a one-line error.
+
+    Parameters
+    ----------
+    exc : BaseException
+        The exception; its message may span lines (h5py, Numba, Dask) or be empty.
+    fallback : str, optional
+        Returned when the message is empty; default: the exception's type name.
+
+    Returns
+    -------
+    str
+        The first line (possibly empty when the message starts with a newline).
+    """
+    text = str(exc)
+    if text:
+        return text.splitlines()[0]
+    return type(exc).__name__ if fallback is None else fallback
+
+
+def open_table_or_error(path: str, sweeps: bool = False):
+    """Open the table at ``path``, or print why it cannot be read.
+
+    Parameters
+    ----------
+    path : str
+        The path as the user typed it (the error quotes it).
+    sweeps : bool, default False
+        Also accept a sweep file (``vcavity sweep``), opened as one.
+
+    Returns
+    -------
+    Table, SweepTable or None
+        The opened file, or None after the one-line error was printed (the caller then
+        exits with :data:`EXIT_BAD_INPUT`).
+    """
+    from pathlib import Path
+
+    from vcavity.io.table import TableFormatError, open_table
+
+    unreadable: tuple[type[BaseException], ...] = (TableFormatError, OSError)
+    if sweeps:  # imported only when asked: compare and export need no sweep reader
+        from vcavity.io.sweep_table import SweepFormatError, is_sweep_file, open_sweep
+
+        unreadable += (SweepFormatError,)
+    try:
+        # only regular files are probed for a sweep: h5py blocks on a FIFO
+        if sweeps and Path(path).is_file() and is_sweep_file(path):
+            return open_sweep(path)
+        return open_table(path)
+    except FileNotFoundError:
+        error(f"table {path!r}: no such file")
+    except unreadable as exc:
+        error(first_line(exc, f"table {path!r}: cannot read it"))
+    return None
+
 
 _RUN_EPILOG_TAIL = """\
   [incidence]  theta_i_deg = [0]   phi_i_deg = 0   paths = 10000000   (a config's defaults;
@@ -43,7 +145,13 @@ examples in runs/. The same config and seed give the same table for any
 
 
 def run_epilog() -> str:
-    """``vcavity run --help`` epilog: config keys, generated from the registries."""
+    """``vcavity run --help`` epilog: config keys, generated from the registries.
+
+    Returns
+    -------
+    str
+        The epilog, every registered distribution and facet model with its parameters.
+    """
     from vcavity.facet import registry as facets
     from vcavity.microfacet import registry as distributions
 
@@ -57,8 +165,22 @@ def run_epilog() -> str:
     return "\n".join(lines) + "\n" + _RUN_EPILOG_TAIL
 
 
-def _count(lo: int, hi: int):
-    """argparse type: an integer in [lo, hi]; integral floats (2e3) accepted, as in TOML."""
+PATHS_MAX = 2**62  # as config.MAX_PATHS (not imported: that would load the registries)
+
+
+def count_arg(lo: int, hi: int):
+    """An argparse type: an integer in ``[lo, hi]``; integral floats (2e3) accepted, as in TOML.
+
+    Parameters
+    ----------
+    lo, hi : int
+        The smallest and largest accepted value.
+
+    Returns
+    -------
+    callable
+        ``parse(text) -> int``, raising ``argparse.ArgumentTypeError`` with the range.
+    """
     accepted = f"must be an integer >= {lo} and <= {hi}"
 
     def parse(text: str) -> int:
@@ -79,17 +201,37 @@ def _count(lo: int, hi: int):
     return parse
 
 
-_PATHS_MAX = 2**62  # as config.MAX_PATHS (not imported: that would load the registries)
+def seed_arg(text: str) -> int:
+    """An argparse type: a seed, as simulation.seed (decimal digits, 0 .. 2**64 - 1).
 
+    Parameters
+    ----------
+    text : str
+        The flag's value.
 
-def _seed(text: str) -> int:
-    """argparse type: a seed, as simulation.seed (decimal digits, 0 .. 2**64 - 1)."""
+    Returns
+    -------
+    int
+        The seed.
+    """
     if not re.fullmatch(r"[0-9][0-9_]*", text) or not 0 <= int(text.replace("_", "")) < 2**64:
         raise argparse.ArgumentTypeError(f"= {text!r}: must be an integer >= 0 and <= {2**64 - 1}")
     return int(text.replace("_", ""))
 
 
-def _fraction(text: str) -> float:
+def fraction_arg(text: str) -> float:
+    """An argparse type: a number strictly between 0 and 1.
+
+    Parameters
+    ----------
+    text : str
+        The flag's value.
+
+    Returns
+    -------
+    float
+        The number.
+    """
     try:
         value = float(text)
     except ValueError:
@@ -99,7 +241,31 @@ def _fraction(text: str) -> float:
     return value
 
 
-class _Parser(argparse.ArgumentParser):
+def seconds_arg(text: str) -> float:
+    """An argparse type: a finite number of seconds > 0.
+
+    Parameters
+    ----------
+    text : str
+        The flag's value.
+
+    Returns
+    -------
+    float
+        The seconds.
+    """
+    # no leading "= " (unlike the types above): Parser.error then writes the line as
+    # "--checkpoint-every: '-1': expected ...", the form the tests pin
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0") from None
+    if not (value > 0 and math.isfinite(value)):
+        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0")
+    return value
+
+
+class Parser(argparse.ArgumentParser):
     """ArgumentParser whose epilog may be a function, called only when help is shown.
 
     ``vcavity run --help`` lists every registered distribution and facet model; building
@@ -111,6 +277,7 @@ class _Parser(argparse.ArgumentParser):
         self._epilog_factory = epilog_factory
 
     def format_help(self):
+        """The help text, with the epilog built now if it is a function."""
         if self._epilog_factory is not None:
             self.epilog = self._epilog_factory()
             self._epilog_factory = None

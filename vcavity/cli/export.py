@@ -1,4 +1,4 @@
-"""``vcavity export``: a table (or a sweep) in a format renderers read (wired into :mod:`vcavity.cli`).
+"""``vcavity export``: a table (or a sweep) in a format renderers read.
 
 Exit status: 0 written; 2 bad input or a source the format cannot represent (one line, the
 output untouched, no file left behind); 130 interrupted.
@@ -7,6 +7,10 @@ output untouched, no file left behind); 130 interrupted.
 from __future__ import annotations
 
 import argparse
+
+from vcavity.cli.common import EXIT_OK, error, first_line
+
+NAME = "export"
 
 
 def _epilog() -> str:
@@ -26,14 +30,21 @@ def _epilog() -> str:
     return "\n".join(lines)
 
 
-def add_export_parser(sub) -> None:
-    """The ``export`` subcommand's arguments."""
-    export = sub.add_parser(
-        "export", help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
+def add_parser(subparsers) -> None:
+    """Add the ``export`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    export = subparsers.add_parser(
+        NAME, help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
         description="Convert a table of `vcavity run` (or, for albedo-lut, a sweep file of "
         "`vcavity sweep`) into a file another program reads. Every check runs before anything "
         "is written; a table the format cannot represent is refused in one line (exit 2).",
         epilog_factory=_epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
+    export.set_defaults(handler=command)
     export.add_argument("table", metavar="IN.h5", help="a table (vcavity run) or a sweep file (vcavity sweep)")
     export.add_argument("output", metavar="FILE", help="the file to write")
     export.add_argument("--format", required=True, metavar="FORMAT",
@@ -46,13 +57,23 @@ def add_export_parser(sub) -> None:
     export.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
 
 
-def cmd_export(args) -> int:
-    """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``."""
+def command(args: argparse.Namespace) -> int:
+    """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``export`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     import os
     from pathlib import Path
 
     from vcavity.io import preflight
-    from vcavity.cli import EXIT_OK, _error
     from vcavity.export import ExportRefused, ExportRequest, export, format_module
     from vcavity.io.sweep_table import is_sweep_file
     from vcavity.plots import PlotError, parse_order
@@ -61,23 +82,23 @@ def cmd_export(args) -> int:
     try:
         module = format_module(args.format)
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     try:
         order = parse_order(args.order)
     except PlotError:
-        return _error(f"--order = {args.order!r}: accepted are 0, inf or f_inf (all orders) and 1, 2, ... "
+        return error(f"--order = {args.order!r}: accepted are 0, inf or f_inf (all orders) and 1, 2, ... "
                       "(or f1, f2, ...)")
     if args.theta_i is not None and args.format != "csv":
-        return _error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
+        return error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
                       f"(--format {args.format} exports every incident direction)")
     source_path = Path(args.table)
     if not source_path.exists():
-        return _error(f"table {args.table!r}: no such file")
+        return error(f"table {args.table!r}: no such file")
     if not source_path.is_file():
-        return _error(f"table {args.table!r}: not a regular file")
+        return error(f"table {args.table!r}: not a regular file")
     example = f"'out{module.SUFFIX}'"
     if args.output == "" or args.output.endswith(("/", os.sep)) or Path(args.output).name in ("", ".", ".."):
-        return _error(f"FILE = {args.output!r}: must name a file, such as {example}")
+        return error(f"FILE = {args.output!r}: must name a file, such as {example}")
     out = preflight.Output(Path(args.output), "FILE", args.output)
     try:
         if out.path.is_file() and os.path.samefile(out.path, source_path):
@@ -85,18 +106,18 @@ def cmd_export(args) -> int:
         preflight.check_output(out, None, args.overwrite)
         preflight.probe_output(out)
     except preflight.PreflightError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     try:
         source = _open_source(source_path, args.table, module, is_sweep_file(source_path))
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i)
     try:
         export(source, args.format, request, out.path)
     except ExportRefused as exc:
-        return _error(str(exc))
+        return error(str(exc))
     except OSError as exc:
-        return _error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+        return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
     print(f"wrote {out.path} ({args.format}, {order_name(order)})")
     return EXIT_OK
 
@@ -114,7 +135,7 @@ def _open_source(path, shown: str, module, is_sweep: bool):
         try:
             return open_sweep(path)
         except (ValueError, OSError, KeyError) as exc:
-            raise ExportRefused(f"sweep {shown!r}: cannot read it ({_first_line(exc)})") from None
+            raise ExportRefused(f"sweep {shown!r}: cannot read it ({first_line(exc)})") from None
     if is_sweep:
         raise ExportRefused(f"table {shown!r}: is a sweep file; --format {module.NAME} exports a table "
                             "of one run (vcavity run)")
@@ -123,10 +144,4 @@ def _open_source(path, shown: str, module, is_sweep: bool):
     try:
         return open_table(path)
     except (TableFormatError, OSError) as exc:
-        raise ExportRefused(_first_line(exc) or f"table {shown!r}: cannot read it") from None
-
-
-def _first_line(exc) -> str:
-    text = str(exc)
-    return text.splitlines()[0] if text else type(exc).__name__
-
+        raise ExportRefused(first_line(exc)) from None

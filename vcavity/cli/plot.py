@@ -1,4 +1,4 @@
-"""``vcavity plot``: draw a table or a sweep file (wired into :mod:`vcavity.cli`).
+"""``vcavity plot``: draw a table or a sweep file.
 
 Exit status: 0 written; 2 bad input (unknown kind, an order or theta_i the source lacks,
 an unusable output path), one line, reported before anything is computed; 130 interrupted.
@@ -7,6 +7,10 @@ an unusable output path), one line, reported before anything is computed; 130 in
 from __future__ import annotations
 
 import argparse
+
+from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, error, open_table_or_error
+
+NAME = "plot"
 
 _PLOT_EPILOG = """\
 kinds:
@@ -35,15 +39,22 @@ scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig
 """
 
 
-def add_plot_parser(sub) -> None:
-    """The ``plot`` subcommand's arguments."""
-    plot = sub.add_parser(
-        "plot", help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
+def add_parser(subparsers) -> None:
+    """Add the ``plot`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    plot = subparsers.add_parser(
+        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
         "(albedo against roughness) (PNG, PDF, SVG)",
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
         "folder) is a one-line error with exit status 2, reported before anything is computed.",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    plot.set_defaults(handler=command)
     plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run, or a sweep file "
                       "written by vcavity sweep")
     plot.add_argument("--kind", metavar="KIND",
@@ -62,31 +73,29 @@ def add_plot_parser(sub) -> None:
                       help="slice: leave out the analytic models (they compile Numba code on first use)")
 
 
-def cmd_plot(args) -> int:
-    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file."""
-    from vcavity.cli import EXIT_OK, _error
+def command(args: argparse.Namespace) -> int:
+    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file.
 
-    from pathlib import Path
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``plot`` flags.
 
-    from vcavity.io.sweep_table import SweepFormatError, is_sweep_file, open_sweep
-    from vcavity.io.table import TableFormatError, open_table
+    Returns
+    -------
+    int
+        The exit status.
+    """
     from vcavity.plots import PlotError, check_request, render
 
-    try:
-        # a sweep file (vcavity sweep) or a table; only regular files (h5py blocks on a FIFO)
-        if Path(args.table).is_file() and is_sweep_file(args.table):
-            table = open_sweep(args.table)
-        else:
-            table = open_table(args.table)
-    except FileNotFoundError:
-        return _error(f"table {args.table!r}: no such file")
-    except (TableFormatError, SweepFormatError, OSError) as exc:
-        return _error(str(exc).splitlines()[0] if str(exc) else f"table {args.table!r}: cannot read it")
+    table = open_table_or_error(args.table, sweeps=True)  # a table or a sweep file (vcavity sweep)
+    if table is None:
+        return EXIT_BAD_INPUT
     try:
         request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
                                 orders=args.order, scale=args.scale, models=not args.no_models)
     except PlotError as exc:
-        return _error(str(exc))
+        return error(str(exc))
     render(table, request)
     print(f"wrote {request.output}")
     return EXIT_OK

@@ -1,4 +1,4 @@
-"""``vcavity sweep`` and ``vcavity info`` on a sweep file (wired into :mod:`vcavity.cli`).
+"""``vcavity sweep``: run a grid of configs into one HDF5 file.
 
 Exit status as for ``run``: 0 done, 2 bad input (one line naming the field or flag, no
 file written or changed), 130 interrupted (finished points stay in the file; ``--resume``
@@ -9,6 +9,10 @@ from __future__ import annotations
 
 import argparse
 import sys
+
+from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line
+
+NAME = "sweep"
 
 _SWEEP_EPILOG = """\
 sweep file (TOML): a run config ([material], [incidence], [simulation], [output]) as the
@@ -29,13 +33,20 @@ docs/sweeps.md; example: runs/sweep_roughness_eta.toml
 """
 
 
-def add_sweep_parser(sub) -> None:
-    """The ``sweep`` subcommand's arguments."""
-    sweep = sub.add_parser(
-        "sweep", help="run a grid of configs (a sweep file) into one HDF5 file",
+def add_parser(subparsers) -> None:
+    """Add the ``sweep`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    sweep = subparsers.add_parser(
+        NAME, help="run a grid of configs (a sweep file) into one HDF5 file",
         description="Simulate every point of a parameter grid and write the tables into one HDF5 "
         "file with the grid axes as leading dimensions.",
         epilog=_SWEEP_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sweep.set_defaults(handler=command)
     sweep.add_argument("sweep", metavar="SWEEP.toml", help="sweep file: a run config plus a [sweep] table")
     sweep.add_argument("-o", "--output", metavar="OUT.h5",
                        help="output file (default: [output].path, else SWEEP with .h5)")
@@ -43,10 +54,8 @@ def add_sweep_parser(sub) -> None:
                        help="continue the sweep in the existing output: run only the points not done "
                        "(refused if it holds another sweep)")
     sweep.add_argument("--overwrite", action="store_true", help="replace an existing output")
-    from vcavity.cli import _count
-
-    sweep.add_argument("--threads", type=_count(1, 4096), metavar="T", help="worker threads (default: all cores)")
-    sweep.add_argument("--chunk-blocks", type=_count(1, 2**40), metavar="B",
+    sweep.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    sweep.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                        help="RNG blocks of 4096 paths per kernel call (does not change results)")
     sweep.add_argument("--dask", metavar="ADDRESS",
                        help="run each point's work units on a Dask cluster: a scheduler address "
@@ -54,17 +63,26 @@ def add_sweep_parser(sub) -> None:
     sweep.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
 
-def cmd_sweep(args) -> int:
-    """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``."""
-    from vcavity.cli import EXIT_INTERRUPTED, _error
+def command(args: argparse.Namespace) -> int:
+    """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``.
 
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``sweep`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+    """
     if args.dask is not None:
         from vcavity.simulate.dask import parse_address
 
         try:
             parse_address(args.dask)
         except ValueError as exc:
-            return _error(str(exc))
+            return error(str(exc))
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -74,7 +92,7 @@ def cmd_sweep(args) -> int:
         output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
                                                    resume=args.resume, threads=args.threads)
     except (sweep_mod.SweepError, PreflightError) as exc:
-        return _error(str(exc))
+        return error(str(exc))
     if note:
         print(f"vcavity: {note}", file=sys.stderr)
     executor = None
@@ -84,7 +102,7 @@ def cmd_sweep(args) -> int:
         try:
             executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
         except ImportError as exc:
-            return _error(f"--dask = {args.dask!r}: {exc}")
+            return error(f"--dask = {args.dask!r}: {exc}")
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
@@ -101,9 +119,9 @@ def cmd_sweep(args) -> int:
 
 
 def _trace(args, spec, output, data, executor, total) -> int:
+    """Run the points not done yet, Ctrl-C deferred to between kernel calls and writes."""
     from vcavity.sweep import run as sweep_run
     from vcavity.analytic.single_bounce import ModelNotApplicable
-    from vcavity.cli import EXIT_OK, _error
     from vcavity.simulate.interrupts import DeferredInterrupt
     from vcavity.io.sweep_table import open_sweep
     from vcavity.io.sweep_summary import format_sweep_summary
@@ -127,11 +145,11 @@ def _trace(args, spec, output, data, executor, total) -> int:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
                           executor=executor, on_progress=progress, on_point=lambda point, d: interrupt.check())
         except ModelNotApplicable as exc:
-            return _error(f"simulation.estimator = 'exact-f1': {str(exc).splitlines()[0]} "
+            return error(f"simulation.estimator = 'exact-f1': {first_line(exc)} "
                           f"({data.n_done()} point(s) done are in {output.path})")
         except OSError as exc:
-            reason = exc.strerror or (str(exc).splitlines() or [type(exc).__name__])[0]
-            return _error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
+            reason = exc.strerror or first_line(exc)
+            return error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
                           "the file holds the points finished before")
         finally:
             if bar is not None:
@@ -139,20 +157,3 @@ def _trace(args, spec, output, data, executor, total) -> int:
     print(f"wrote {output.path}")
     print(format_sweep_summary(open_sweep(output.path)))
     return EXIT_OK
-
-
-def cmd_sweep_info(args) -> int:
-    """``vcavity info`` on a sweep file."""
-    from vcavity.cli import EXIT_OK, _error
-    from vcavity.io.sweep_table import SweepFormatError, open_sweep
-    from vcavity.io.sweep_summary import format_sweep_summary
-
-    try:
-        sweep = open_sweep(args.table)
-    except (FileNotFoundError, SweepFormatError) as exc:
-        return _error(str(exc))
-    print(format_sweep_summary(sweep))
-    return EXIT_OK
-
-
-__all__ = ["add_sweep_parser", "cmd_sweep", "cmd_sweep_info"]

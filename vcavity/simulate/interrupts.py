@@ -44,6 +44,18 @@ def install_main_handler() -> None:
         pass
 
 
+def uninstall_main_handler() -> None:
+    """Restore Python's default SIGINT handler where :func:`install_main_handler` set its own.
+
+    Any other handler (a caller's, ``SIG_IGN``) is left alone; main thread only.
+    """
+    try:
+        if signal.getsignal(signal.SIGINT) is _main_handler:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+    except ValueError:
+        pass
+
+
 def raise_if_pending() -> None:
     """Raise ``KeyboardInterrupt`` if a SIGINT arrived that something swallowed."""
     if _pending:

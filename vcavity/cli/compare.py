@@ -1,0 +1,95 @@
+"""``vcavity compare``: test a table against an analytic model.
+
+Exit status: 0 the chi-square test of f1 passed for every incident direction; 1 it
+failed; 2 bad input (not a table, missing dataset or order, model not applicable), one
+line; 130 interrupted.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from vcavity.cli.common import (
+    EXIT_BAD_INPUT,
+    EXIT_OK,
+    EXIT_TEST_FAILED,
+    count_arg,
+    error,
+    first_line,
+    fraction_arg,
+    open_table_or_error,
+)
+
+NAME = "compare"
+
+
+def add_parser(subparsers) -> None:
+    """Add the ``compare`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    compare = subparsers.add_parser(
+        NAME, help="compare a table with an analytic model (exit 0 pass, 1 fail)",
+        description="Compare a table with an analytic model: albedos, relative L1 over the "
+        "hemisphere (with the value noise alone gives), and a Pearson chi-square test of the f1 "
+        "counts against the V-cavity single-bounce model, its exact expectation. Exit status 0 "
+        "when that test passes for every incident direction (Sidak-corrected), 1 when it fails, "
+        "2 for bad input (not a table, missing dataset or order, model not applicable).")
+    compare.set_defaults(handler=command)
+    compare.add_argument("table", metavar="OUT.h5")
+    compare.add_argument("--model", default="vcavity", choices=("vcavity", "smith", "smith-hc", "oren-nayar"),
+                         help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
+                         "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1)")
+    compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
+    compare.add_argument("--significance", type=fraction_arg, default=0.01, metavar="A",
+                         help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
+    compare.add_argument("--nodes", type=count_arg(1, 1024), default=64, metavar="N",
+                         help="body-integral nodes per axis of the model (accuracy control, default 64, "
+                         "at most 1024: the cost grows as N^2 per cell)")
+    compare.add_argument("--lambda-fit", action="store_true",
+                         help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
+
+
+def command(args: argparse.Namespace) -> int:
+    """``vcavity compare OUT.h5 [--model M] [--plots DIR] ...``: print the report.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``compare`` flags.
+
+    Returns
+    -------
+    int
+        :data:`EXIT_OK` when the test passed, :data:`EXIT_TEST_FAILED` when it failed,
+        :data:`EXIT_BAD_INPUT` for bad input.
+    """
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.compare import compare_table, format_report
+    from vcavity.io.preflight import PreflightError, check_plots_folder
+
+    if not 0.0 < args.significance < 1.0:
+        return error(f"--significance = {args.significance}: must be in (0, 1)")
+    if args.plots is not None:
+        try:
+            check_plots_folder(args.plots)
+        except PreflightError as exc:
+            return error(str(exc))
+    table = open_table_or_error(args.table)
+    if table is None:
+        return EXIT_BAD_INPUT
+    if 1 in table.order and table.is_analytic(1):
+        return error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
+                     "there is no simulated f1 to test; run with --estimator analog to validate the walk")
+    try:
+        report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
+                               lambda_fit=args.lambda_fit, plots_dir=args.plots)
+    except ModelNotApplicable as exc:
+        return error(first_line(exc))
+    print(format_report(report))
+    if args.plots:
+        print(f"plots written to {args.plots}")
+    return EXIT_OK if report.passed else EXIT_TEST_FAILED

@@ -1,0 +1,398 @@
+"""``vcavity run``: simulate a run config and write its BRDF table to HDF5.
+
+Exit status: 0 written; 2 bad input (config, flags, output path, not enough memory or
+disk, model not applicable, a write that failed), one line and no output file; 130
+interrupted (the checkpoint keeps the run; ``--resume`` continues it).
+
+The command is a pipeline of steps, each of which either returns what the next needs or
+raises :class:`~vcavity.cli.common.BadInput`: :func:`read_config` (config and flag
+overrides), :func:`preflight` (every check that can fail, before compiling),
+:func:`prepare` (the simulation, a resumed state, the compiled kernel and models),
+:func:`trace_and_write` (progress, checkpoints, Ctrl-C) and :func:`report`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import TYPE_CHECKING, NamedTuple
+
+from vcavity.cli.common import (
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    PATHS_MAX,
+    BadInput,
+    Interrupted,
+    count_arg,
+    error,
+    first_line,
+    fraction_arg,
+    run_epilog,
+    seconds_arg,
+    seed_arg,
+)
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from vcavity.config import RunConfig
+    from vcavity.simulate.pipeline import RunResult
+
+NAME = "run"
+
+
+def add_parser(subparsers) -> None:
+    """Add the ``run`` sub-parser, whose handler is :func:`command`.
+
+    Parameters
+    ----------
+    subparsers : argparse._SubParsersAction
+        The ``vcavity`` parser's subcommands.
+    """
+    run = subparsers.add_parser(
+        NAME,
+        help="simulate a run config and write an HDF5 table",
+        description="Simulate light paths in V-cavities for each incident direction of a run "
+        "config and write the BRDF table per bounce order to HDF5.",
+        epilog_factory=run_epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    run.set_defaults(handler=command)
+    run.add_argument("config", nargs="?", metavar="CONFIG.toml", help="run config (default: built-in figure 7 run)")
+    run.add_argument("-o", "--output", metavar="OUT.h5",
+                     help="output table (default: [output].path, else CONFIG with .h5, else ./vcavity-default.h5)")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace an existing table (atomically, only when the run completes); without it an "
+                     "existing output is refused before anything runs")
+    run.add_argument("--paths", type=count_arg(1, PATHS_MAX), metavar="N",
+                     help="paths per incident direction, e.g. 1e6 (overrides the config)")
+    run.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
+    run.add_argument("--seed", type=seed_arg, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
+    run.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
+                     help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
+    run.add_argument("--estimator", choices=("analog", "exact-f1", "paper"),
+                     help="analog: every order simulated (default); exact-f1: f1 from the exact V-cavity "
+                     "single-bounce model, orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
+                     "on a facet, weighted by its lit projected area) (overrides [simulation] estimator)")
+    run.add_argument("--target-error", type=fraction_arg, metavar="E",
+                     help="run each direction until the energy-weighted mean relative standard error of "
+                     "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths")
+    run.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
+                     help="with --target-error: the most paths per direction (default: the config's paths)")
+    run.add_argument("--resume", action="store_true",
+                     help="continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same "
+                     "config and seed; the table equals an uninterrupted run's, bit for bit)")
+    run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
+                     help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
+                     "saves it too and exits 130; removed once the table is written")
+    run.add_argument("--dask", metavar="ADDRESS",
+                     help="run the work units on a Dask cluster: a scheduler address (tcp://host:8786) or "
+                     "local:N for N local worker processes (needs vcavity[distributed]; docs/distributed.md); "
+                     "the table is the local run's, bit for bit")
+    run.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+
+
+class Written(NamedTuple):
+    """A finished run: the table's path, the run's result and the config it ran."""
+
+    path: Path
+    result: RunResult
+    config: RunConfig
+
+
+def command(args: argparse.Namespace) -> int:
+    """``vcavity run [CONFIG.toml] [-o OUT.h5] ...``: simulate, write the table, summarise it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    int
+        The exit status.
+
+    Raises
+    ------
+    Interrupted
+        On Ctrl-C, saying whether the table was written (``main`` reports it).
+    """
+    from vcavity.simulate import interrupts
+
+    written = None
+    try:
+        try:
+            status, written = simulate(args)
+        except BadInput as exc:
+            status = error(exc)
+        if written is not None:
+            report(written)
+        if status != EXIT_INTERRUPTED:
+            interrupts.raise_if_pending()  # a Ctrl-C something swallowed: reported below
+        return status
+    except BaseException as exc:
+        # after a swallowed SIGINT, what fails next is a consequence of the interrupt
+        if not (interrupts.is_interrupt(exc) or interrupts.pending()):
+            raise
+        outcome = f"the table was written: {written.path}" if written is not None else "no table written"
+        raise Interrupted(outcome) from exc
+
+
+def simulate(args: argparse.Namespace) -> tuple[int, Written | None]:
+    """Every step of the run up to the written table.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    tuple of (int, Written or None)
+        The exit status and, when the table was written, what :func:`report` prints.
+
+    Raises
+    ------
+    BadInput
+        The first check that failed, as its one-line error.
+    """
+    cfg = read_config(args)
+    output = preflight(args, cfg)
+    sim, state = prepare(args, cfg, output.path)
+    status, result = trace_and_write(args, sim, cfg, output, state)
+    return status, Written(output.path, result, cfg) if status == EXIT_OK else None
+
+
+_FLAG_OF = {"simulation.estimator": "--estimator", "simulation.target_error": "--target-error",
+            "simulation.max_paths": "--max-paths"}
+
+
+def read_config(args: argparse.Namespace) -> RunConfig:
+    """The run config: CONFIG (or the built-in run) with the flags that override it.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+
+    Returns
+    -------
+    RunConfig
+        The validated config.
+
+    Raises
+    ------
+    BadInput
+        A config error; one caused by a flag names the flag, not the config field.
+    """
+    import dataclasses
+
+    import vcavity.config as config_mod
+
+    try:
+        cfg = config_mod.load(args.config) if args.config else config_mod.default_config()
+        if args.paths is not None:
+            cfg = dataclasses.replace(
+                cfg, incidence=tuple(dataclasses.replace(d, paths=args.paths) for d in cfg.incidence)
+            )
+        if args.seed is not None:
+            cfg = dataclasses.replace(cfg, seed=args.seed)
+        overrides = {name: value for name, value in (("estimator", args.estimator),
+                     ("target_error", args.target_error), ("max_paths", args.max_paths)) if value is not None}
+        if args.max_paths is not None and args.target_error is None and cfg.target_error is None:
+            raise BadInput(f"--max-paths = {args.max_paths}: applies only with --target-error "
+                           "(otherwise --paths is the number of paths)")
+        if overrides:
+            try:
+                cfg = cfg.replace(**overrides)
+            except config_mod.ConfigError as exc:  # name the flag the value came from
+                field = str(exc).split(" ", 1)[0]
+                if field not in _FLAG_OF or field.split(".")[1] not in overrides:
+                    raise
+                raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
+    except config_mod.ConfigError as exc:
+        raise BadInput(str(exc)) from None
+    return cfg
+
+
+def preflight(args: argparse.Namespace, cfg):
+    """Every check of a run that can fail, before compiling or tracing (vcavity/io/preflight.py).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    cfg : RunConfig
+        The run config.
+
+    Returns
+    -------
+    vcavity.io.preflight.Output
+        Where the table goes, and the flag or field that named it.
+
+    Raises
+    ------
+    BadInput
+        The first failed check (output path, threads, memory, disk space).
+    """
+    import numba
+
+    from vcavity.io import preflight as checks
+    from vcavity.io.checkpoint import checkpoint_path
+    from vcavity.sensor.grid import EqualAreaSensor
+
+    try:
+        out = checks.resolve_output(args.output, cfg.output, args.config)
+        resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
+        checks.check_output(out, args.config, args.overwrite or resuming)
+        if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
+            raise checks.PreflightError(f"--threads = {args.threads}: must be between 1 and "
+                                        f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
+        n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
+        checks.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
+        removed = checks.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
+        checks.check_disk_space(out, checks.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
+    except checks.PreflightError as exc:
+        raise BadInput(str(exc)) from None
+    if removed:
+        print(f"vcavity: removed {len(removed)} stale temporary file(s) of interrupted writes: "
+              f"{', '.join(p.name for p in removed)}", file=sys.stderr)
+    return out
+
+
+def prepare(args: argparse.Namespace, cfg, out):
+    """The simulation, ready to trace: a resumed state, the compiled kernel, the f1 models.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    cfg : RunConfig
+        The run config.
+    out : pathlib.Path
+        The table's path (its checkpoint is ``out`` + ``.checkpoint``).
+
+    Returns
+    -------
+    tuple of (Simulation, state or None)
+        The simulation and the checkpointed state to continue from (None: from the start).
+
+    Raises
+    ------
+    BadInput
+        An unusable checkpoint, or exact-f1 on a material its model does not cover.
+    """
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.io import checkpoint
+    from vcavity.simulate import driver
+    from vcavity.simulate.interrupts import raise_if_pending
+    from vcavity.simulate.pipeline import Simulation
+
+    sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
+    print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), "
+          f"{sim.total_paths:,} paths, {sim.threads} thread(s)", file=sys.stderr)
+    try:
+        state = driver.load_state(sim, out, args.resume or False)
+    except checkpoint.CheckpointError as exc:
+        if not (args.overwrite and not args.resume and "unfinished run exists" in str(exc)):
+            raise BadInput(str(exc)) from None
+        state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
+    compile_s = sim.compile()
+    raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
+    print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
+          file=sys.stderr)
+    try:
+        model_s = sim.prepare_models()
+    except ModelNotApplicable as exc:
+        raise BadInput(f"--estimator = exact-f1: {first_line(exc)}") from None
+    if cfg.estimator == "exact-f1":
+        print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
+    return sim, state
+
+
+def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
+    """Trace the paths (progress bar, checkpoints, deferred Ctrl-C) and write the table.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        The parsed ``run`` flags.
+    sim : Simulation
+        The prepared simulation.
+    cfg : RunConfig
+        The run config.
+    output : vcavity.io.preflight.Output
+        Where the table goes.
+    state : optional
+        The checkpointed state to continue from.
+
+    Returns
+    -------
+    tuple of (int, RunResult or None)
+        ``EXIT_OK`` and the result, or ``EXIT_INTERRUPTED`` (the driver said what it kept).
+
+    Raises
+    ------
+    BadInput
+        An unusable ``--dask`` address, or a table write that failed.
+    """
+    import dataclasses
+
+    from vcavity.io.writer import write_result
+    from vcavity.simulate import driver
+
+    executor = _executor(args.dask) if args.dask else None
+    out = output.path
+    cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
+
+    def write(result, cancelled):
+        write_result(out, result, cfg, cancelled=cancelled)
+
+    try:
+        return driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
+                                   quiet=args.quiet, executor=executor)
+    except OSError as exc:
+        reason = exc.strerror or first_line(exc)
+        raise BadInput(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "
+                       "nothing was written and an existing file is unchanged; the checkpoint keeps the run") from None
+    finally:
+        if executor is not None:
+            executor.close()
+
+
+def _executor(address: str):
+    """The Dask executor of ``--dask ADDRESS``; raises BadInput when it cannot connect."""
+    from vcavity.simulate.dask import DaskExecutor, parse_address
+
+    try:
+        parse_address(address)
+        return DaskExecutor(address)
+    except (ValueError, ImportError, OSError) as exc:
+        raise BadInput(f"--dask = {address!r}: {first_line(exc)}") from None
+
+
+def report(written: Written) -> None:
+    """Print where the table went, the run's speed and the table's summary (stdout).
+
+    Parameters
+    ----------
+    written : Written
+        The finished run.
+    """
+    from vcavity.io.summary import format_summary
+    from vcavity.io.table import open_table
+
+    cfg, result = written.config, written.result
+    traced = int(result.paths.sum())
+    rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
+    if cfg.target_error is not None:
+        for d, paths, rel_error, reached in zip(cfg.incidence, result.paths, result.relative_error,
+                                                result.target_reached):
+            state = "reached" if reached else "NOT reached: path cap hit"
+            print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
+                  f"(error {rel_error:.3g} after {int(paths):,} paths)")
+    print(f"wrote {written.path}")
+    print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
+          f"kernel compile/load {result.compile_time_s:.2f} s")
+    print(format_summary(open_table(written.path)))
