@@ -135,7 +135,6 @@ def test_cycle_finder_finds_a_planted_cycle():
     assert any({"vcavity.sensor.grid", "vcavity.config"} <= set(c) for c in _cycles(graph))
 
 
-@pytest.mark.xfail(strict=True, reason="vcavity.cli <-> its subcommand modules until the CLI split lands")
 def test_no_import_cycles_function_level_imports_included():
     assert _cycles(_graph()) == []
 

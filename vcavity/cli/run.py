@@ -350,8 +350,9 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
         write_result(out, result, cfg, cancelled=cancelled)
 
     try:
-        return driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
-                                   quiet=args.quiet, executor=executor)
+        result = driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
+                                     quiet=args.quiet, executor=executor)
+        return (EXIT_INTERRUPTED, None) if result is None else (EXIT_OK, result)
     except OSError as exc:
         reason = exc.strerror or first_line(exc)
         raise BadInput(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "

@@ -4,7 +4,7 @@
 loses finished work: the run state is saved atomically to ``<OUT>.checkpoint`` every
 ``checkpoint_every_s`` seconds (``vcavity.io.checkpoint``), Ctrl-C (SIGINT) is turned into a
 request to stop at the next chunk boundary, which saves a checkpoint, prints one line and
-returns exit status 130, and the checkpoint is removed only once the table is written.
+returns no result (the command exits with status 130), and the checkpoint is removed only once the table is written.
 ``--resume`` continues from the checkpoint; the final table is bitwise identical to an
 uninterrupted run because the state is an integer tally of a prefix of each direction's
 blocks and later blocks do not depend on earlier ones.
@@ -16,11 +16,6 @@ import sys
 from pathlib import Path
 
 from vcavity.io import checkpoint
-
-EXIT_OK = 0
-EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130
-
 
 def _say(message: str) -> None:
     print(f"vcavity: {message}", file=sys.stderr)
@@ -55,7 +50,8 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
                  quiet: bool = False, executor=None):
     """Run ``simulation`` (from ``state``) and write its table with ``write(result, cancelled)``.
 
-    Returns ``(exit_status, result)``; ``result`` is None when interrupted. Ctrl-C is
+    Returns the run's result once its table is written, or None when interrupted (what was
+    kept is said on stderr). Ctrl-C is
     deferred (:class:`vcavity.simulate.interrupts.DeferredInterrupt`): between chunks it stops the
     run with a checkpoint; during the table write it cancels the rename (the old table
     stays) and the checkpoint, saved with the finished state just before, keeps the run:
@@ -100,7 +96,7 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
             done = int(simulation.paths_done(interrupted.state).sum())
             _say(f"interrupted; checkpoint {path} saved ({done:,} of {simulation.total_paths:,} paths): "
                  "continue with --resume")
-            return EXIT_INTERRUPTED, None
+            return None
         if bar is not None:
             bar.close()
         save(final)  # a write cut short (Ctrl-C, kill, full disk) then loses no path
@@ -109,9 +105,9 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
         except KeyboardInterrupt:
             _say(f"interrupted while writing {output}: nothing written, an existing table untouched; "
                  f"checkpoint {path} holds the finished run: --resume writes the table")
-            return EXIT_INTERRUPTED, None
+            return None
     path.unlink(missing_ok=True)  # the table holds everything now
-    return EXIT_OK, result
+    return result
 
 
 def describe_checkpoint(path) -> str:
