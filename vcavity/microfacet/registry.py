@@ -21,7 +21,8 @@ diverges and only V-cavity masking applies), and
   ``sample(u1, u2, params) -> (tan_theta_m, cos_phi_m, sin_phi_m)``;
   ``sample_disk(a, b, s, params)``, the same map with ``u1 = 1 - s`` and azimuth
   ``(a, b)/sqrt(s)`` for a uniform disk point (the kernel's trig-free sampler);
-  ``sample_normal(u1, u2, params) -> (mx, my, mz)``;
+  ``sample_normal(u1, u2, params) -> (mx, my, mz)``, derived from ``sample`` as
+  ``sample_normal = common.normal_sampler(sample)``;
   ``D(mx, my, mz, params)``, ``pdf(mx, my, mz, params)``;
   ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
   not exact).
