@@ -198,7 +198,7 @@ def test_grid_needs_no_edit_for_a_new_distribution(monkeypatch):
     clone.NAME = "clone_t"
     monkeypatch.setattr(registry, "MODULES", registry.MODULES + (clone,))
     monkeypatch.setattr(registry, "NAMES", registry.NAMES + (clone.NAME,))
-    monkeypatch.setattr(registry, "_BY_NAME", {**registry._BY_NAME, clone.NAME: clone})
+    monkeypatch.setattr(registry.REGISTRY, "modules", registry.MODULES + (clone,))
     cases = stress.build_cases()
     new = [c for c in cases if c.material["distribution"] == "clone_t"]
     assert {c.material.get("facet", "interfaced_lambertian") for c in new} == set(facets.NAMES)

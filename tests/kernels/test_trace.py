@@ -1,6 +1,6 @@
-"""Pieces of the walk (vcavity/kernels/trace.py): the groove sampler the kernel inlines
-for each registered distribution, and one compiled kernel per (distribution, facet model,
-variant) with the documented output layout.
+"""Pieces of the walk (vcavity/kernels/trace.py, vcavity/kernels/scaffold.py): the groove
+sampler the kernels inline for each registered distribution, and one compiled kernel per
+(distribution, facet model, variant) with the documented output layout.
 
 (The Fresnel bracketing table the IL facet event uses is tested with the facet, in
 tests/facet/test_interfaced_lambertian.py.) The two-sample Kolmogorov-Smirnov tests
@@ -8,6 +8,9 @@ reject at p < 1e-3 (false-positive rate 2e-3 per distribution case, fixed seeds)
 """
 
 import math
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -15,7 +18,7 @@ from numba import literally, njit
 from scipy import stats
 
 from vcavity.facet import registry as facets
-from vcavity.kernels import trace
+from vcavity.kernels import scaffold, trace
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE
 
@@ -27,7 +30,7 @@ def _kernel_grooves(dist_kind, n, seed, params):
     state = np.uint64(seed)
     out = np.empty((n, 2))
     for k in range(n):
-        state, t, c, s = trace._sample_groove(state, dist_kind, params)
+        state, t, c, s = scaffold.sample_groove(state, dist_kind, params)
         out[k, 0] = t
         out[k, 1] = math.atan2(s, c)
     return out
@@ -91,3 +94,20 @@ def test_one_kernel_per_scene_and_its_output_layout():
     counts, stat = kernel(incident, np.uint64(99), 0, 0, 0, params, facet_data, 50, max_order, resolution, n_slots,
                           1)
     assert counts.sum() == 0 and stat.sum() == 0
+
+
+def test_the_source_tag_covers_every_jitted_file_the_kernels_are_built_from():
+    """Numba's cache does not see edits to inlined code in other files: the kernels' tag
+    must hash each file of jitted code or overloads that the two walks import (in a fresh
+    process, so that only their own imports count)."""
+    script = ("import sys, vcavity.kernels.paper, vcavity.kernels.trace\n"
+              "for name, module in sorted(sys.modules.items()):\n"
+              "    if name.startswith('vcavity.') and getattr(module, '__file__', None):\n"
+              "        print(module.__file__)\n")
+    out = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=300, check=True)
+    imported = {Path(line).resolve() for line in out.stdout.splitlines()}
+    tagged = {path.resolve() for path in scaffold.source_files()}
+    compiled = [str(path) for path in imported - tagged if "njit" in path.read_text() or "overload" in path.read_text()]
+    assert not compiled  # jitted code, or Numba overloads (the registries' dispatch), left out of the tag
+    assert {Path(scaffold.__file__).resolve(), Path(trace.__file__).resolve()} <= tagged
+    assert len(tagged) == len(scaffold.source_files())  # no file twice

@@ -2,14 +2,20 @@
 module, names and dispatch indices, parameter parsing, and dispatch from Python and from
 jitted code. Deterministic (no false-positive rate)."""
 
+import inspect
 import math
+import os
+import subprocess
+import sys
 
 import numpy as np
 import pytest
 from numba import literally
 
 from numba import njit
+from vcavity._numba.jit import CACHE_ENABLED
 from vcavity.microfacet import beckmann, gaussian, ggx, phong, student_t, registry
+from vcavity.microfacet.common import normal_from_slope_angle
 from vcavity.parameters import Number, ParameterError, Roughness
 
 INTERFACE = ("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample", "sample_disk",
@@ -163,3 +169,33 @@ def test_vectorised_path():
             registry.evaluate("D", bad, m, params)
         with pytest.raises(ValueError, match="kind"):
             registry.sample_normals(bad, [0.5], [0.5], params)
+
+
+@pytest.mark.parametrize("module", registry.MODULES, ids=registry.NAMES)
+def test_sample_normal_is_the_module_sample_as_a_normal(module):
+    """Every ``sample_normal`` is derived once (``common.normal_sampler``): bit for bit the
+    normal of ``sample``, and a function of the module itself for Numba's cache (its file and
+    module; no closure cell, which would put a per-process dispatcher id in the cache key)."""
+    params = module.params_from(example_values(module.NAME))
+    for u1, u2 in ((0.0, 0.0), (0.3, 0.7), (0.75, 0.3), (0.999, 0.5), (1.0 - 2.0**-53, 0.9)):
+        assert module.sample_normal(u1, u2, params) == normal_from_slope_angle(*module.sample(u1, u2, params))
+    py_func = module.sample_normal.py_func
+    assert py_func.__module__ == module.__name__ and py_func.__qualname__ == "sample_normal"
+    assert py_func.__closure__ is None and inspect.getfile(py_func) == module.__file__
+    assert type(module.sample_normal._cache).__name__ == ("FunctionCache" if CACHE_ENABLED else "NullCache")
+
+
+@pytest.mark.skipif(not CACHE_ENABLED, reason="no writable Numba cache here")
+def test_a_second_process_loads_the_derived_sample_normal_from_the_cache(tmp_path):
+    script = ("from vcavity.microfacet import ggx\n"
+              "f = ggx.sample_normal\n"
+              "print(f(0.3, 0.7, ggx.params_from({'alpha_x': 0.3, 'alpha_y': 0.5})))\n"
+              "print(sum(f.stats.cache_hits.values()), sum(f.stats.cache_misses.values()))\n")
+    env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.run([sys.executable, "-c", script], env=env, capture_output=True, text=True, timeout=300)
+            for _ in range(2)]
+    for run in runs:
+        assert run.returncode == 0, run.stderr
+    first, second = (run.stdout.splitlines() for run in runs)
+    assert first[0] == second[0]
+    assert first[1] == "0 1" and second[1] == "1 0"  # compiled once, then loaded

@@ -203,17 +203,21 @@ def fresnel_transmittance(cos_theta, eta):
     return min(2.0 * g * c * (1.0 / (gpc * gpc) + e2 / (e2c_g * e2c_g)), 1.0)
 
 
+# The scalars that have an array version, by position: the one jitted loop picks the
+# scalar with an integer, so every array version shares one compiled (cached) loop.
+_ELEMENTWISE = ("fresnel_dielectric", "fresnel_transmittance")
+
+
 @njit(cache=True)
-def _fresnel_loop(cos_flat, eta, out, transmittance):
+def _fresnel_loop(cos_flat, eta, out, which):
     for k in range(cos_flat.shape[0]):
-        if transmittance:
+        if which == 1:
             out[k] = fresnel_transmittance(cos_flat[k], eta)
         else:
             out[k] = fresnel_dielectric(cos_flat[k], eta)
 
 
-def fresnel_dielectric_array(cos_array, eta):
-    """Array version of :func:`fresnel_dielectric` (same jitted formula, W eq. 22).
+_ARRAY_DOC = """Array version of :func:`{name}` (the same jitted scalar code, W eq. 22).
 
     Parameters
     ----------
@@ -225,33 +229,27 @@ def fresnel_dielectric_array(cos_array, eta):
     Returns
     -------
     numpy.ndarray
-        F with the shape of ``cos_array``, float64.
+        {symbol} with the shape of ``cos_array``, float64.
     """
-    cos = np.asarray(cos_array, dtype=np.float64)
-    out = np.empty(cos.size, dtype=np.float64)
-    _fresnel_loop(np.ascontiguousarray(cos.ravel()), float(eta), out, False)
-    return out.reshape(cos.shape)
 
 
-def fresnel_transmittance_array(cos_array, eta):
-    """Array version of :func:`fresnel_transmittance` (T = 1 - F, W eq. 22).
+def _array_version(name: str, symbol: str):
+    """``name_array(cos_array, eta)``: the scalar ``name`` of :data:`_ELEMENTWISE` over an array."""
+    which = _ELEMENTWISE.index(name)
 
-    Parameters
-    ----------
-    cos_array : array_like
-        Cosines, any shape.
-    eta : float
-        Relative index (scalar).
+    def array_version(cos_array, eta):
+        cos = np.asarray(cos_array, dtype=np.float64)
+        out = np.empty(cos.size, dtype=np.float64)
+        _fresnel_loop(np.ascontiguousarray(cos.ravel()), float(eta), out, which)
+        return out.reshape(cos.shape)
 
-    Returns
-    -------
-    numpy.ndarray
-        T with the shape of ``cos_array``, float64.
-    """
-    cos = np.asarray(cos_array, dtype=np.float64)
-    out = np.empty(cos.size, dtype=np.float64)
-    _fresnel_loop(np.ascontiguousarray(cos.ravel()), float(eta), out, True)
-    return out.reshape(cos.shape)
+    array_version.__name__ = array_version.__qualname__ = f"{name}_array"
+    array_version.__doc__ = _ARRAY_DOC.format(name=name, symbol=symbol)
+    return array_version
+
+
+fresnel_dielectric_array = _array_version("fresnel_dielectric", "F")
+fresnel_transmittance_array = _array_version("fresnel_transmittance", "T = 1 - F")
 
 
 @njit(cache=True)

@@ -26,13 +26,13 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._numba.jit import njit
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
-from vcavity.kernels.trace import _SOURCE_TAG, _sample_groove
-from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
+from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
+                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
+from vcavity.rng import BLOCK_SIZE, next_uniform
 
 #: Fixed-point scale of the integer weights.
 WEIGHT_SCALE = 65536.0
@@ -47,8 +47,6 @@ PAPER_ABSORBED_PATHS = 5
 PAPER_TRUNCATED_PATHS = 6
 PAPER_DEGENERATE_PATHS = 7
 N_PAPER_STATS = 8
-
-_KERNELS: dict[tuple[int, int, int], object] = {}
 
 
 def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
@@ -65,46 +63,31 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     beyond max_order) and cell, ``counts`` the number of those paths. Blocks and slots as
     in :func:`vcavity.kernels.trace.get_kernel`.
     """
-    key = (int(dist_kind), int(facet_kind), int(facet_variant))
-    if key in _KERNELS:
-        return _KERNELS[key]
-    DIST, FACET, VARIANT = key
-    SOURCE_TAG = _SOURCE_TAG
+    return build_kernel("paper_kernel", _make_paper_kernel, dist_kind, facet_kind, facet_variant)
+
+
+def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
+    """The Python walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
                max_bounces, max_order, resolution, n_slots):
-        _ = SOURCE_TAG
-        n_cells = resolution * resolution
-        weights = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
-        squares = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
-        counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
+        _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
+        weights = order_cell_tally(n_slots, max_order, resolution)
+        squares = order_cell_tally(n_slots, max_order, resolution)
+        counts = order_cell_tally(n_slots, max_order, resolution)
         stats = np.zeros((n_slots, N_PAPER_STATS), np.int64)
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
-            exit_x = np.empty(BLOCK_SIZE)  # a block's exits, binned together (trace.get_kernel)
-            exit_y = np.empty(BLOCK_SIZE)
-            exit_z = np.empty(BLOCK_SIZE)
-            exit_row = np.empty(BLOCK_SIZE, np.int64)
+            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             exit_q = np.empty(BLOCK_SIZE, np.int64)
-            exit_cell = np.empty(BLOCK_SIZE, np.int64)
             for b in range(slot, n_blocks, n_slots):
-                block = first_block + b
-                n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
-                state = block_key(direction_key, block)
+                state, n_here = block_start(direction_key, first_block, b, n_paths)
                 n_exits = 0
                 for _ in range(n_here):
-                    state, tan_m, cos_phi, sin_phi = _sample_groove(state, DIST, params)
-                    if tan_m < 1e150:
-                        cos_t = 1.0 / math.sqrt(1.0 + tan_m * tan_m)
-                        sin_t = tan_m * cos_t
-                    else:
-                        cos_t = 1.0 / tan_m
-                        sin_t = 1.0
-                    dx = -(ix * cos_phi + iy * sin_phi)
-                    dy = -(iy * cos_phi - ix * sin_phi)
-                    dz = -iz
+                    state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, params)
+                    cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)
                     state, u0 = next_uniform(state)
                     if u0 < 0.5:  # a uniform point of the left facet, x in (-1, 0]
                         surface = LEFT
@@ -126,22 +109,22 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
                     state, u_round = next_uniform(state)
                     q = np.int64(math.floor(cos_in / (iz * cos_t) * WEIGHT_SCALE + u_round))
                     k = 0
-                    fate = 0  # 0 exit, 1 absorbed, 2 truncated, 3 degenerate
+                    fate = EXITED
                     while True:
                         k += 1
                         state, event, dx, dy, dz = facets.event(FACET, VARIANT, state, dx, dy, dz, cos_in,
                                                                 nx, cos_t, facet_data)
                         if event == FACET_ABSORBED:
-                            fate = 1
+                            fate = ABSORBED
                             break
                         surface, x = next_surface(surface, x, dx, dz, tan_m)
                         if surface == OPENING:
                             break
                         if surface == NO_HIT:
-                            fate = 3
+                            fate = DEGENERATE
                             break
                         if k == max_bounces:
-                            fate = 2
+                            fate = TRUNCATED
                             break
                         if surface == LEFT:
                             nx = sin_t
@@ -150,9 +133,8 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
                             nx = -sin_t
                             cos_in = -(dz - tan_m * dx) * cos_t
                     stats[slot, PAPER_MAX_BOUNCES] = max(stats[slot, PAPER_MAX_BOUNCES], k)
-                    if fate == 0:
-                        wx = dx * cos_phi - dy * sin_phi
-                        wy = dx * sin_phi + dy * cos_phi
+                    if fate == EXITED:
+                        wx, wy = to_world(dx, dy, cos_phi, sin_phi)
                         inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
                         exit_x[n_exits] = wx * inv
                         exit_y[n_exits] = wy * inv
@@ -160,9 +142,9 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
                         exit_row[n_exits] = k if k <= max_order else 0
                         exit_q[n_exits] = q
                         n_exits += 1
-                    else:
-                        stats[slot, fate - 1] += q
-                        stats[slot, PAPER_ABSORBED_PATHS + fate - 1] += 1
+                    else:  # the PAPER_* columns are in the order of the outcome codes
+                        stats[slot, PAPER_ABSORBED + fate - ABSORBED] += q
+                        stats[slot, PAPER_ABSORBED_PATHS + fate - ABSORBED] += 1
                 bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
                 for j in range(n_exits):
                     order = exit_row[j]
@@ -173,7 +155,4 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
                     counts[slot, order, cell] += 1
         return weights, squares, counts, stats
 
-    kernel.__qualname__ = kernel.__name__ = f"paper_kernel_d{DIST}_f{FACET}_v{VARIANT}"
-    kernel = njit(cache=True, parallel=True)(kernel)
-    _KERNELS[key] = kernel
     return kernel

@@ -24,10 +24,6 @@ Throughput and compile times: docs/performance.md.
 
 from __future__ import annotations
 
-import hashlib
-import math
-from pathlib import Path
-
 import numpy as np
 from numba import prange
 
@@ -36,8 +32,10 @@ from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
+from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
+                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
 from vcavity.microfacet import registry as distributions
-from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
+from vcavity.rng import next_uniform
 
 # per-slot statistics columns
 STAT_ABSORBED = 0
@@ -46,31 +44,6 @@ STAT_DEGENERATE = 2
 STAT_MAX_BOUNCES = 3
 STAT_UNBINNED = 4  # exits of an order below first_binned_order: counted, not binned
 N_STATS = 5
-
-
-@njit(cache=True, inline="always")
-def _sample_groove(state, dist_kind, params):
-    """Advance ``state``; return (state, tan theta_m, cos phi_m, sin phi_m).
-
-    The groove normal has pdf D(m)(m.n) (physics.md sec. 2), sampled from a uniform
-    point of the unit disk by the distribution's trig-free ``sample_disk``.
-    """
-    while True:
-        state, ua = next_uniform(state)
-        state, ub = next_uniform(state)
-        a = 2.0 * ua - 1.0
-        b = 2.0 * ub - 1.0
-        s = a * a + b * b
-        if 0.0 < s < 1.0:
-            tan_m, cos_phi, sin_phi = distributions.sample_disk(dist_kind, a, b, s, params)
-            return state, tan_m, cos_phi, sin_phi
-
-
-# outcome codes of one path
-EXITED = 0
-ABSORBED = 1
-TRUNCATED = 2
-DEGENERATE = 3
 
 
 @njit(cache=True, inline="always")
@@ -84,17 +57,8 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant,
     caller bins it, or not). Nothing is written to memory here, so threads share no
     cache lines in the hot loop.
     """
-    state, tan_m, cos_phi, sin_phi = _sample_groove(state, dist_kind, params)
-    if tan_m < 1e150:
-        cos_t = 1.0 / math.sqrt(1.0 + tan_m * tan_m)
-        sin_t = tan_m * cos_t
-    else:  # tan^2 would overflow
-        cos_t = 1.0 / tan_m
-        sin_t = 1.0
-    # d = -i in the groove frame (x' = (cos phi, sin phi, 0), y' = (-sin phi, cos phi, 0))
-    dx = -(ix * cos_phi + iy * sin_phi)
-    dy = -(iy * cos_phi - ix * sin_phi)
-    dz = -iz
+    state, tan_m, cos_phi, sin_phi = sample_groove(state, dist_kind, params)
+    cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)
     state, u0 = next_uniform(state)
     x = 2.0 * u0 - 1.0  # uniform entry point on the opening
     surface, x = enter(x, dx, dz, tan_m)  # always a wall: the segment from the opening
@@ -121,12 +85,8 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant,
     # exit through the opening: back to the world frame. Not normalised: reflections and
     # re-emissions keep |d| = 1 to rounding (a few ulp), and the binning tolerates that
     # (binning.bin_block); the sqrt and division cost ~5 ns a path.
-    wx = dx * cos_phi - dy * sin_phi
-    wy = dx * sin_phi + dy * cos_phi
+    wx, wy = to_world(dx, dy, cos_phi, sin_phi)
     return state, EXITED, k, wx, wy, dz
-
-
-_KERNELS: dict[tuple[int, int, int], object] = {}
 
 
 def variants() -> list[tuple[str, str, str]]:
@@ -145,27 +105,6 @@ def variants() -> list[tuple[str, str, str]]:
     """
     return [(dist.NAME, facet.NAME, name)
             for dist in distributions.MODULES for facet in facets.MODULES for name in facet.VARIANTS]
-
-
-def _source_tag() -> int:
-    """Hash of every source file the kernels inline.
-
-    Numba's on-disk cache only notices edits to the file of the cached function itself,
-    not to the functions it inlines from other modules. The kernel closes over this tag,
-    and closure values are part of Numba's cache key, so editing any of these files
-    recompiles the kernel instead of silently running stale code.
-    """
-    root = Path(__file__).resolve().parent.parent
-    digest = hashlib.blake2b(digest_size=8)
-    for sub in ("kernels", "facet", "microfacet", "_numba"):
-        for path in sorted((root / sub).glob("*.py")):
-            digest.update(path.read_bytes())
-    for name in ("sensor/binning.py", "rng.py"):
-        digest.update((root / name).read_bytes())
-    return int.from_bytes(digest.digest(), "little") >> 1
-
-
-_SOURCE_TAG = _source_tag()
 
 
 def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
@@ -189,17 +128,16 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     counted (``stats[:, STAT_UNBINNED]``): the exact-f1 estimator passes 2 and skips the
     binning of the ~90 % of paths that leave after one bounce; their counts row stays 0.
     """
-    key = (int(dist_kind), int(facet_kind), int(facet_variant))
-    if key in _KERNELS:
-        return _KERNELS[key]
-    DIST, FACET, VARIANT = key
-    SOURCE_TAG = _SOURCE_TAG
+    return build_kernel("kernel", _make_kernel, dist_kind, facet_kind, facet_variant)
+
+
+def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
+    """The Python walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
                max_bounces, max_order, resolution, n_slots, first_binned_order):
-        _ = SOURCE_TAG  # part of the cache key; see _source_tag
-        n_cells = resolution * resolution
-        counts = np.zeros((n_slots, max_order + 1, n_cells), np.int64)
+        _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
+        counts = order_cell_tally(n_slots, max_order, resolution)
         stats = np.zeros((n_slots, N_STATS), np.int64)
         ix = incident[0]
         iy = incident[1]
@@ -211,18 +149,9 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
             degenerate = 0
             deepest = 0
             unbinned = 0
-            exit_x = np.empty(BLOCK_SIZE)
-            exit_y = np.empty(BLOCK_SIZE)
-            exit_z = np.empty(BLOCK_SIZE)
-            exit_row = np.empty(BLOCK_SIZE, np.int64)
-            exit_cell = np.empty(BLOCK_SIZE, np.int64)
+            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             for b in range(slot, n_blocks, n_slots):
-                block = first_block + b
-                n_here = min(BLOCK_SIZE, n_paths - block * BLOCK_SIZE)
-                state = block_key(direction_key, block)
-                # a block's exits are binned together after its walks: the binning's loop
-                # (sqrt, division, atan polynomial) then runs in SIMD lanes, ~12 ns a path
-                # less than binning each exit as it leaves (docs/performance.md)
+                state, n_here = block_start(direction_key, first_block, b, n_paths)
                 n_exits = 0
                 for _ in range(n_here):
                     state, outcome, k, wx, wy, wz = _trace_path(
@@ -253,10 +182,4 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
             stats[slot, STAT_UNBINNED] = unbinned
         return counts, stats
 
-    # Every variant gets its own name: Numba names the cache files and the compiled
-    # symbols after __qualname__ (plus a per-process counter), so variants compiled in
-    # different processes under one name collided when loaded together ("descr is NULL").
-    kernel.__qualname__ = kernel.__name__ = f"kernel_d{DIST}_f{FACET}_v{VARIANT}"
-    kernel = njit(cache=True, parallel=True)(kernel)
-    _KERNELS[key] = kernel
     return kernel

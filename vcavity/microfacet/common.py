@@ -9,11 +9,14 @@ distribution through its ``Lambda`` (each distribution module provides
 ``smith_lambda``); the Smith forms below take the Lambda values and leave the
 sidedness factors ``chi+(v.m)`` to the caller.
 
-Every function here is jitted (``vcavity._numba.jit.njit(cache=True)``); vectorised
-evaluation of the distributions is in :mod:`vcavity.microfacet.registry`.
+Every function here is jitted (``vcavity._numba.jit.njit(cache=True)``) except
+:func:`normal_sampler`, which derives a distribution's ``sample_normal`` from its
+``sample``; vectorised evaluation of the distributions is in
+:mod:`vcavity.microfacet.registry`.
 """
 
 import math
+import sys
 
 import numpy as np
 
@@ -170,6 +173,61 @@ def normal_from_slope_angle(tan_theta, cos_phi, sin_phi):
         mz = 1.0 / tan_theta
         sin_theta = 1.0
     return sin_theta * cos_phi, sin_theta * sin_phi, mz
+
+
+# The body every distribution's sample_normal shares, on one line: each derived function is
+# compiled as if written on the line that derives it, so tracebacks point there.
+_SAMPLE_NORMAL_SOURCE = ("def sample_normal(u1, u2, params): "
+                         "t, c, s = sample(u1, u2, params); return normal_from_slope_angle(t, c, s)\n")
+
+_SAMPLE_NORMAL_DOC = """Unit normal sampled with pdf ``D(m)(m.n)``: the module's ``sample`` as a normal.
+
+    Derived by :func:`vcavity.microfacet.common.normal_sampler`.
+
+    Parameters
+    ----------
+    u1, u2 : float
+        Uniforms in ``[0, 1)``.
+    params : ndarray
+        The distribution's parameter array (its ``params_from``).
+
+    Returns
+    -------
+    mx, my, mz : float
+        Unit microfacet normal with ``mz > 0``.
+    """
+
+
+def normal_sampler(sample):
+    """The distribution's ``sample_normal``: ``normal_from_slope_angle(*sample(u1, u2, params))``.
+
+    Called once per distribution module, as ``sample_normal = normal_sampler(sample)``.
+    The function returned belongs to that module, for Numba's on-disk cache as for
+    tracebacks: its source file and line are those of the call and its module that of
+    the caller, and ``sample`` is a global of the function, not a closure cell. So its
+    cache files are named and invalidated like those of a function written in that module
+    (editing the module recompiles it), and a second process loads it from the cache: a
+    dispatcher in a closure cell would enter Numba's cache key with a per-process id,
+    and every process would compile it again.
+
+    Parameters
+    ----------
+    sample : numba dispatcher
+        The module's jitted ``sample(u1, u2, params) -> (tan_theta_m, cos_phi_m, sin_phi_m)``.
+
+    Returns
+    -------
+    numba dispatcher
+        Jitted ``sample_normal(u1, u2, params) -> (mx, my, mz)`` with ``cache=True``.
+    """
+    caller = sys._getframe(1)
+    scope = {"__name__": caller.f_globals["__name__"], "sample": sample,
+             "normal_from_slope_angle": normal_from_slope_angle}
+    source = "\n" * (caller.f_lineno - 1) + _SAMPLE_NORMAL_SOURCE
+    exec(compile(source, caller.f_code.co_filename, "exec"), scope)
+    function = scope["sample_normal"]
+    function.__doc__ = _SAMPLE_NORMAL_DOC
+    return njit(cache=True)(function)
 
 
 @njit(cache=True, inline="always")

@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.microfacet.common import normal_sampler
 from vcavity.parameters import Number
 from vcavity._numba.jit import njit
 
@@ -226,24 +226,8 @@ def sample(u1, u2, params):
     return t, math.cos(phi), math.sin(phi)
 
 
-@njit(cache=True)
-def sample_normal(u1, u2, params):
-    """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
-
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)``.
-    params : ndarray
-        Output of :func:`params_from`.
-
-    Returns
-    -------
-    mx, my, mz : float
-        Unit microfacet normal with ``mz > 0``.
-    """
-    t, c, s = sample(u1, u2, params)
-    return normal_from_slope_angle(t, c, s)
+#: Unit normal ``(mx, my, mz)`` sampled with pdf ``D(m)(m.n)``: :func:`sample` as a normal.
+sample_normal = normal_sampler(sample)
 
 
 @njit(cache=True, inline="always")

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from vcavity.microfacet.common import log_ratio_squared, normal_from_slope_angle, stretched_slope
+from vcavity.microfacet.common import log_ratio_squared, normal_sampler, stretched_slope
 from vcavity.parameters import Roughness
 from vcavity._numba.jit import njit
 
@@ -79,24 +79,8 @@ def sample(u1, u2, params):
     return stretched_slope(r, math.cos(phi), math.sin(phi), params[0], params[1])
 
 
-@njit(cache=True)
-def sample_normal(u1, u2, params):
-    """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
-
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)``.
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    mx, my, mz : float
-        Unit microfacet normal with ``mz > 0``.
-    """
-    t, c, s = sample(u1, u2, params)
-    return normal_from_slope_angle(t, c, s)
+#: Unit normal ``(mx, my, mz)`` sampled with pdf ``D(m)(m.n)``: :func:`sample` as a normal.
+sample_normal = normal_sampler(sample)
 
 
 @njit(cache=True, inline="always")

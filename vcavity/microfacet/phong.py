@@ -21,7 +21,7 @@ import math
 import numpy as np
 
 from vcavity.microfacet.beckmann import smith_lambda_of_a
-from vcavity.microfacet.common import normal_from_slope_angle
+from vcavity.microfacet.common import normal_sampler
 from vcavity.parameters import Number
 from vcavity._numba.jit import njit
 
@@ -85,24 +85,8 @@ def sample(u1, u2, params):
     return math.sqrt(t2), math.cos(phi), math.sin(phi)
 
 
-@njit(cache=True)
-def sample_normal(u1, u2, params):
-    """Unit normal sampled with pdf ``D(m)(m.n)``; see :func:`sample`.
-
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)``.
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    mx, my, mz : float
-        Unit microfacet normal with ``mz > 0``.
-    """
-    t, c, s = sample(u1, u2, params)
-    return normal_from_slope_angle(t, c, s)
+#: Unit normal ``(mx, my, mz)`` sampled with pdf ``D(m)(m.n)``: :func:`sample` as a normal.
+sample_normal = normal_sampler(sample)
 
 
 @njit(cache=True, inline="always")

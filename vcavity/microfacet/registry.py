@@ -3,7 +3,8 @@
 Adding a distribution is a new module in ``vcavity/microfacet/`` with the interface below
 plus one line in :data:`DISTRIBUTION_MODULES`; nothing else in the package changes. The
 kernel, the analytic models, config validation, reports and ``--help`` all reach the
-distributions through this module.
+distributions through this module, whose lookup, parsing and dispatch are one
+:class:`vcavity._numba.registry.Registry` (:data:`REGISTRY`).
 
 Interface of a distribution module
 ----------------------------------
@@ -20,7 +21,8 @@ diverges and only V-cavity masking applies), and
   ``sample(u1, u2, params) -> (tan_theta_m, cos_phi_m, sin_phi_m)``;
   ``sample_disk(a, b, s, params)``, the same map with ``u1 = 1 - s`` and azimuth
   ``(a, b)/sqrt(s)`` for a uniform disk point (the kernel's trig-free sampler);
-  ``sample_normal(u1, u2, params) -> (mx, my, mz)``;
+  ``sample_normal(u1, u2, params) -> (mx, my, mz)``, derived from ``sample`` as
+  ``sample_normal = common.normal_sampler(sample)``;
   ``D(mx, my, mz, params)``, ``pdf(mx, my, mz, params)``;
   ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
   not exact).
@@ -36,14 +38,13 @@ Python they call the module directly.
 
 from __future__ import annotations
 
-import importlib
-from typing import Any, Mapping
+from typing import Mapping
 
 import numpy as np
 
-from vcavity._numba.dispatch import check_kind, dispatcher
 from vcavity._numba.jit import njit
-from vcavity.parameters import ParameterError, accepted_keys, canonical_keys, parse_parameters
+from vcavity._numba.registry import Registry
+from vcavity.parameters import ParameterError
 
 #: Registered distributions, by module name under ``vcavity.microfacet``: one line each.
 DISTRIBUTION_MODULES = (
@@ -54,60 +55,23 @@ DISTRIBUTION_MODULES = (
     "student_t",
 )
 
-MODULES = tuple(importlib.import_module(f"vcavity.microfacet.{name}") for name in DISTRIBUTION_MODULES)
-_BY_NAME = {module.NAME: module for module in MODULES}
-NAMES = tuple(_BY_NAME)
-
-_INTERFACE = ("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample",
-              "sample_disk", "sample_normal", "D", "pdf", "smith_lambda")
-for _module in MODULES:
-    _missing = [attr for attr in _INTERFACE if not hasattr(_module, attr)]
-    if _missing:
-        raise ImportError(f"distribution module {_module.__name__} lacks {', '.join(_missing)}")
+REGISTRY = Registry(
+    "vcavity.microfacet", DISTRIBUTION_MODULES, noun="distribution", title="microfacet distribution",
+    interface=("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample",
+               "sample_disk", "sample_normal", "D", "pdf", "smith_lambda"),
+    owner="vcavity.microfacet.registry")
+for _module in REGISTRY.modules:
     if _module.SMITH not in ("exact", "approximate", "infinite"):
         raise ImportError(f"{_module.__name__}.SMITH = {_module.SMITH!r}: exact, approximate or infinite")
 
-
-def get(name: str):
-    """The distribution module called ``name``.
-
-    Raises
-    ------
-    KeyError
-        For an unknown name; the message lists the registered ones.
-    """
-    if name not in _BY_NAME:
-        raise KeyError(f"unknown microfacet distribution {name!r}; registered: {', '.join(NAMES)}")
-    return _BY_NAME[name]
-
-
-def kind_of(name: str) -> int:
-    """Dispatch index of the distribution ``name`` (see module docstring)."""
-    return MODULES.index(get(name))
-
-
-def parse(name: str, raw: Mapping[str, Any], table: str = "material") -> dict[str, float]:
-    """Validated canonical parameter values of distribution ``name`` from a user table.
-
-    Only the distribution's own keys are read; the caller rejects unknown keys.
-
-    Raises
-    ------
-    vcavity.parameters.ParameterError
-        One line naming the field, the value and what is accepted.
-    """
-    module = get(name)
-    return parse_parameters(module.PARAMETERS, raw, table, f"distribution {name!r}")
-
-
-def config_keys(name: str) -> tuple[str, ...]:
-    """Config keys the distribution ``name`` accepts."""
-    return accepted_keys(get(name).PARAMETERS)
-
-
-def value_keys(name: str) -> tuple[str, ...]:
-    """Keys of the canonical values of ``name`` (what tables store in ``/material``)."""
-    return canonical_keys(get(name).PARAMETERS)
+MODULES = REGISTRY.modules
+NAMES = REGISTRY.names
+get = REGISTRY.get
+kind_of = REGISTRY.kind_of
+parse = REGISTRY.parse
+config_keys = REGISTRY.config_keys
+value_keys = REGISTRY.value_keys
+help_lines = REGISTRY.help_lines
 
 
 def is_isotropic(name: str, values: Mapping[str, float]) -> bool:
@@ -117,9 +81,8 @@ def is_isotropic(name: str, values: Mapping[str, float]) -> bool:
 
 def params_from(name: str, values: Mapping[str, float]) -> tuple[int, np.ndarray]:
     """``(kind, params)``: dispatch index and contiguous float64 parameter array."""
-    module = get(name)
-    params = np.ascontiguousarray(module.params_from(values), dtype=np.float64)
-    return MODULES.index(module), params
+    kind = kind_of(name)
+    return kind, np.ascontiguousarray(REGISTRY.modules[kind].params_from(values), dtype=np.float64)
 
 
 def lobe_width(name: str, values: Mapping[str, float]) -> float:
@@ -127,25 +90,15 @@ def lobe_width(name: str, values: Mapping[str, float]) -> float:
     return float(get(name).lobe_width(values))
 
 
-def help_lines() -> list[str]:
-    """``--help`` text: one block per distribution (description and parameters)."""
-    lines = []
-    for module in MODULES:
-        lines.append(f"{module.NAME}: {module.DESCRIPTION}")
-        lines.extend(f"    {spec.help()}" for spec in module.PARAMETERS)
-    return lines
-
-
 # ------------------------------------------------------------------ jitted dispatch
 
 
-_OWNER = "vcavity.microfacet.registry"
-sample = dispatcher(MODULES, "sample", ("u1", "u2", "params"), _OWNER)
-sample_normal = dispatcher(MODULES, "sample_normal", ("u1", "u2", "params"), _OWNER)
-sample_disk = dispatcher(MODULES, "sample_disk", ("a", "b", "s", "params"), _OWNER)
-D = dispatcher(MODULES, "D", ("mx", "my", "mz", "params"), _OWNER)
-pdf = dispatcher(MODULES, "pdf", ("mx", "my", "mz", "params"), _OWNER)
-smith_lambda = dispatcher(MODULES, "smith_lambda", ("vx", "vy", "vz", "params"), _OWNER)
+sample = REGISTRY.dispatcher("sample", ("u1", "u2", "params"))
+sample_normal = REGISTRY.dispatcher("sample_normal", ("u1", "u2", "params"))
+sample_disk = REGISTRY.dispatcher("sample_disk", ("a", "b", "s", "params"))
+D = REGISTRY.dispatcher("D", ("mx", "my", "mz", "params"))
+pdf = REGISTRY.dispatcher("pdf", ("mx", "my", "mz", "params"))
+smith_lambda = REGISTRY.dispatcher("smith_lambda", ("vx", "vy", "vz", "params"))
 
 
 # ------------------------------------------------------------------ vectorised path
@@ -196,7 +149,7 @@ def evaluate(op: str, kind: int, vectors, params) -> np.ndarray:
     if op not in _ROW_OPS:
         raise ValueError(f"op = {op!r}: accepted {', '.join(_ROW_OPS)}")
     v = np.ascontiguousarray(np.asarray(vectors, dtype=np.float64).reshape(-1, 3))
-    kind = check_kind(MODULES, kind, "vcavity.microfacet.registry.evaluate")
+    kind = REGISTRY.check_kind(kind, "evaluate")
     return _rows(kind, _ROW_OPS[op], v, np.ascontiguousarray(params, dtype=np.float64))
 
 
@@ -204,11 +157,11 @@ def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
     """Normals ``(N, 3)`` from arrays of uniforms through the distribution's ``sample_normal``."""
     u1 = np.ascontiguousarray(u1, dtype=np.float64).ravel()
     u2 = np.ascontiguousarray(u2, dtype=np.float64).ravel()
-    kind = check_kind(MODULES, kind, "vcavity.microfacet.registry.sample_normals")
+    kind = REGISTRY.check_kind(kind, "sample_normals")
     return _sample_rows(kind, u1, u2, np.ascontiguousarray(params, dtype=np.float64))
 
 
-__all__ = ["DISTRIBUTION_MODULES", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
+__all__ = ["DISTRIBUTION_MODULES", "REGISTRY", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
            "config_keys", "value_keys", "is_isotropic", "params_from", "lobe_width", "help_lines",
            "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "evaluate",
            "sample_normals"]
