@@ -219,50 +219,28 @@ def seed_arg(text: str) -> int:
     return int(text.replace("_", ""))
 
 
-def fraction_arg(text: str) -> float:
-    """An argparse type: a number strictly between 0 and 1.
-
-    Parameters
-    ----------
-    text : str
-        The flag's value.
-
-    Returns
-    -------
-    float
-        The number.
-    """
+def _number_arg(text: str, accepted, expected: str, prefix: str = "= ") -> float:
+    """``float(text)`` if ``accepted`` of it, else the one-line ``ArgumentTypeError``."""
     try:
         value = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"= {text!r}: expected a number in (0, 1)") from None
-    if not 0.0 < value < 1.0:
-        raise argparse.ArgumentTypeError(f"= {text!r}: expected a number in (0, 1)")
+        value = math.nan  # refused below: no predicate accepts NaN
+    if not accepted(value):
+        raise argparse.ArgumentTypeError(f"{prefix}{text!r}: {expected}")
     return value
+
+
+def fraction_arg(text: str) -> float:
+    """An argparse type: a number strictly between 0 and 1 (``text``: the flag's value)."""
+    return _number_arg(text, lambda value: 0.0 < value < 1.0, "expected a number in (0, 1)")
 
 
 def seconds_arg(text: str) -> float:
-    """An argparse type: a finite number of seconds > 0.
-
-    Parameters
-    ----------
-    text : str
-        The flag's value.
-
-    Returns
-    -------
-    float
-        The seconds.
-    """
+    """An argparse type: a finite number of seconds > 0 (``text``: the flag's value)."""
     # no leading "= " (unlike the types above): Parser.error then writes the line as
     # "--checkpoint-every: '-1': expected ...", the form the tests pin
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0") from None
-    if not (value > 0 and math.isfinite(value)):
-        raise argparse.ArgumentTypeError(f"{text!r}: expected a number of seconds > 0")
-    return value
+    return _number_arg(text, lambda value: value > 0 and math.isfinite(value),
+                       "expected a number of seconds > 0", prefix="")
 
 
 class Parser(argparse.ArgumentParser):

@@ -24,13 +24,7 @@ NAME = "compare"
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``compare`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``compare`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     compare = subparsers.add_parser(
         NAME, help="compare a table with an analytic model (exit 0 pass, 1 fail)",
         description="Compare a table with an analytic model: albedos, relative L1 over the "
@@ -55,11 +49,6 @@ def add_parser(subparsers) -> None:
 
 def command(args: argparse.Namespace) -> int:
     """``vcavity compare OUT.h5 [--model M] [--plots DIR] ...``: print the report.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``compare`` flags.
 
     Returns
     -------

@@ -31,13 +31,7 @@ def _epilog() -> str:
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``export`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``export`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     export = subparsers.add_parser(
         NAME, help="write a table in a renderer's format (RGL .bsdf, MERL, albedo LUT, CSV)",
         description="Convert a table of `vcavity run` (or, for albedo-lut, a sweep file of "
@@ -60,15 +54,7 @@ def add_parser(subparsers) -> None:
 def command(args: argparse.Namespace) -> int:
     """``vcavity export IN.h5 FILE --format F [--order K] [--overwrite]``.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``export`` flags.
-
-    Returns
-    -------
-    int
-        The exit status.
+    Returns the exit status (:mod:`vcavity.cli.common`).
     """
     import os
     from pathlib import Path

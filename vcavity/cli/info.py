@@ -13,13 +13,7 @@ NAME = "info"
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``info`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``info`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     info = subparsers.add_parser(
         NAME, help="print a human summary of a table",
         description="Print the material, budget, albedo per order, absorbed and truncated energy of a table.")
@@ -30,15 +24,7 @@ def add_parser(subparsers) -> None:
 def command(args: argparse.Namespace) -> int:
     """``vcavity info OUT.h5``: the summary of a table, a sweep file or a checkpoint.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``info`` arguments.
-
-    Returns
-    -------
-    int
-        The exit status.
+    Returns the exit status (:mod:`vcavity.cli.common`).
     """
     from pathlib import Path
 

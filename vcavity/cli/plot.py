@@ -40,13 +40,7 @@ scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``plot`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``plot`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     plot = subparsers.add_parser(
         NAME, help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
         "(albedo against roughness) (PNG, PDF, SVG)",
@@ -76,15 +70,7 @@ def add_parser(subparsers) -> None:
 def command(args: argparse.Namespace) -> int:
     """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``plot`` flags.
-
-    Returns
-    -------
-    int
-        The exit status.
+    Returns the exit status (:mod:`vcavity.cli.common`).
     """
     from vcavity.plots import PlotError, check_request, render
 

@@ -42,13 +42,7 @@ NAME = "run"
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``run`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``run`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     run = subparsers.add_parser(
         NAME,
         help="simulate a run config and write an HDF5 table",
@@ -103,15 +97,7 @@ class Written(NamedTuple):
 def command(args: argparse.Namespace) -> int:
     """``vcavity run [CONFIG.toml] [-o OUT.h5] ...``: simulate, write the table, summarise it.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``run`` flags.
-
-    Returns
-    -------
-    int
-        The exit status.
+    Returns the exit status (:mod:`vcavity.cli.common`).
 
     Raises
     ------
@@ -142,11 +128,6 @@ def command(args: argparse.Namespace) -> int:
 def simulate(args: argparse.Namespace) -> tuple[int, Written | None]:
     """Every step of the run up to the written table.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``run`` flags.
-
     Returns
     -------
     tuple of (int, Written or None)
@@ -170,11 +151,6 @@ _FLAG_OF = {"simulation.estimator": "--estimator", "simulation.target_error": "-
 
 def read_config(args: argparse.Namespace) -> RunConfig:
     """The run config: CONFIG (or the built-in run) with the flags that override it.
-
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``run`` flags.
 
     Returns
     -------

@@ -34,13 +34,7 @@ docs/sweeps.md; example: runs/sweep_roughness_eta.toml
 
 
 def add_parser(subparsers) -> None:
-    """Add the ``sweep`` sub-parser, whose handler is :func:`command`.
-
-    Parameters
-    ----------
-    subparsers : argparse._SubParsersAction
-        The ``vcavity`` parser's subcommands.
-    """
+    """Add the ``sweep`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     sweep = subparsers.add_parser(
         NAME, help="run a grid of configs (a sweep file) into one HDF5 file",
         description="Simulate every point of a parameter grid and write the tables into one HDF5 "
@@ -66,15 +60,7 @@ def add_parser(subparsers) -> None:
 def command(args: argparse.Namespace) -> int:
     """``vcavity sweep SWEEP.toml -o OUT.h5 [--resume | --overwrite]``.
 
-    Parameters
-    ----------
-    args : argparse.Namespace
-        The parsed ``sweep`` flags.
-
-    Returns
-    -------
-    int
-        The exit status.
+    Returns the exit status (:mod:`vcavity.cli.common`).
     """
     if args.dask is not None:
         from vcavity.simulate.dask import parse_address

@@ -12,9 +12,13 @@
 
 import math
 
-import numpy as np
-
-from vcavity.microfacet.common import normal_sampler, ratio_squared, stretched_slope
+from vcavity.microfacet.common import (
+    alpha_lobe_width,
+    alpha_params_from,
+    normal_sampler,
+    ratio_squared,
+    stretched_slope,
+)
 from vcavity.parameters import Roughness
 from vcavity._numba.jit import njit
 
@@ -29,24 +33,9 @@ _LOG_PI = math.log(math.pi)
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 
-def params_from(values):
-    """Parameter array ``[alpha_x, alpha_y]`` from the canonical values (validated upstream).
-
-    Parameters
-    ----------
-    values : mapping
-        ``alpha_x``, ``alpha_y`` (> 0), as :class:`~vcavity.parameters.Roughness` returns them.
-
-    Returns
-    -------
-    ndarray, shape (2,)
-    """
-    return np.array([values["alpha_x"], values["alpha_y"]], dtype=np.float64)
-
-
-def lobe_width(values):
-    """Angular roughness scale for quadratures: the smaller alpha (radians of theta_m)."""
-    return float(min(values["alpha_x"], values["alpha_y"]))
+#: ``[alpha_x, alpha_y]`` from the canonical values; the smaller alpha as the lobe width.
+params_from = alpha_params_from
+lobe_width = alpha_lobe_width
 
 
 @njit(cache=True)
@@ -56,18 +45,9 @@ def sample(u1, u2, params):
     Slope ``(s_x, s_y) = (alpha_x r cos phi', alpha_y r sin phi')`` with
     ``r = sqrt(-log(1 - u1))``, ``phi' = 2 pi u2``; ``m = normalize(-s_x, -s_y, 1)``.
 
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)`` (``u1 >= 1`` is clamped to the largest float below 1).
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
-        Finite ``tan theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the
-        tangent is 0).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    Finite ``tan theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the tangent is 0).
     """
     if u1 >= 1.0:
         u1 = _ONE_MINUS_ULP
@@ -87,22 +67,8 @@ sample_normal = normal_sampler(sample)
 def sample_disk(a, b, s, params):
     """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)``: the kernel's trig-free map.
 
-    For a point ``(a, b)`` uniform in the unit disk, ``s = a^2 + b^2`` is uniform and
-    independent of the direction ``(a, b)/sqrt(s)`` (Marsaglia's polar method), so this
-    samples ``D(m)(m.n)`` exactly as :func:`sample` does, without cos and sin.
-
-    Parameters
-    ----------
-    a, b : float
-        A point of the open unit disk other than the centre.
-    s : float
-        ``a*a + b*b`` in (0, 1).
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``.
     """
     # r^2 = -log(1 - u1) = -log s (physics.md sec. 2)
     if params[0] == params[1] and 1e-150 < params[0] < 1e150:
@@ -126,18 +92,10 @@ def D(mx, my, mz, params):
     [1e-50, 1e50] and ``mz > 1e-50`` no product under- or overflows; otherwise the same
     in logarithms, so no alpha in the accepted range (any float > 0) divides by zero.
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    float
-        ``D(m)`` in 1/sr; 0 for ``mz <= 0``; ``inf`` only where ``D`` exceeds the float64
-        range (the peak for ``alpha_x alpha_y < ~1e-308``).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    ``D(m)`` in 1/sr; 0 for ``mz <= 0``; ``inf`` only where ``D`` exceeds the float64 range
+    (the peak for ``alpha_x alpha_y < ~1e-308``).
     """
     if mz <= 0.0:
         return 0.0
@@ -167,17 +125,9 @@ def _stretched_tan2(mx, my, mz, ax, ay):
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    float
-        Density per steradian.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    Density per steradian.
     """
     return D(mx, my, mz, params) * mz
 
@@ -216,18 +166,10 @@ def _a_of_direction(vx, vy, vz, ax, ay):
 def smith_lambda(vx, vy, vz, params):
     """Exact Smith ``Lambda(v)`` for anisotropic Beckmann (H eq. 69 with eq. 80).
 
-    Parameters
-    ----------
-    vx, vy, vz : float
-        Unit direction.
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    float
-        ``Lambda >= 0``; 0 for ``v = n`` (``vz >= 1``), ``inf`` for ``vz <= 0``
-        (grazing limit; ``chi+`` is the caller's business below the horizon).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    ``Lambda >= 0``; 0 for ``v = n`` (``vz >= 1``), ``inf`` for ``vz <= 0`` (grazing limit;
+    ``chi+`` is the caller's business below the horizon).
     """
     if vz >= 1.0:
         return 0.0
@@ -247,17 +189,9 @@ def smith_lambda_walter_fit(vx, vy, vz, params):
     else 1, i.e. ``Lambda = (1 - 1.259 a + 0.396 a^2)/(3.535 a + 2.181 a^2)``
     (as in H appendix C); G1 within 0.35 % of the exact value.
 
-    Parameters
-    ----------
-    vx, vy, vz : float
-        Unit direction.
-    params : ndarray
-        ``[alpha_x, alpha_y]``.
-
-    Returns
-    -------
-    float
-        Approximate ``Lambda``; same edge conventions as :func:`smith_lambda`.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    Approximate ``Lambda``; same edge conventions as :func:`smith_lambda`.
     """
     if vz >= 1.0:
         return 0.0

@@ -34,6 +34,28 @@ _PLAIN_NORM_MAX = 1e150
 _LN2 = math.log(2.0)
 
 
+def alpha_params_from(values):
+    """Parameter array ``[alpha_x, alpha_y]`` of a distribution parameterised by its roughness alone.
+
+    Beckmann and GGX share it (their ``params_from``).
+
+    Parameters
+    ----------
+    values : mapping
+        ``alpha_x``, ``alpha_y`` (> 0), as :class:`~vcavity.parameters.Roughness` returns them
+        (validated upstream).
+
+    Returns
+    -------
+    ndarray, shape (2,)
+    """
+    return np.array([values["alpha_x"], values["alpha_y"]], dtype=np.float64)
+
+
+def alpha_lobe_width(values):
+    """Angular roughness scale for quadratures: the smaller alpha (radians of theta_m)."""
+    return float(min(values["alpha_x"], values["alpha_y"]))
+
 @njit(cache=True)
 def g1_vcavity(vx, vy, vz, mx, my, mz):
     """V-cavity masking ``G1_V(v, m)`` (H eq. 49, physics.md sec. 3).

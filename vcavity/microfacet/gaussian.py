@@ -206,18 +206,10 @@ def inverse_cdf_theta(u1, params):
 def sample(u1, u2, params):
     """Sample ``m`` with pdf ``D(m)(m.n)``: tabulated theta (IL eq. 13), ``phi = 2 pi u2``.
 
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)``.
-    params : ndarray
-        Output of :func:`params_from`.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
-        Finite ``tan theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the
-        tangent is 0).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: output of :func:`params_from`.
+    Returns: Finite ``tan theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the
+    tangent is 0).
     """
     t = math.tan(inverse_cdf_theta(u1, params))
     if t <= 0.0:
@@ -235,18 +227,8 @@ def sample_disk(a, b, s, params):
     """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)`` (no trig for the
     azimuth; see :func:`vcavity.microfacet.beckmann.sample_disk`); theta from the table.
 
-    Parameters
-    ----------
-    a, b : float
-        A point of the open unit disk other than the centre.
-    s : float
-        ``a*a + b*b`` in (0, 1).
-    params : ndarray
-        Output of :func:`params_from`.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: output of :func:`params_from`.
     """
     inv = 1.0 / math.sqrt(s)
     return math.tan(inverse_cdf_theta(1.0 - s, params)), a * inv, b * inv
@@ -256,17 +238,9 @@ def sample_disk(a, b, s, params):
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n) = C exp(-theta_m^2/(2 sigma^2))`` (IL eq. 13).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        Output of :func:`params_from`.
-
-    Returns
-    -------
-    float
-        Density per steradian; 0 for ``mz <= 0``.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: output of :func:`params_from`.
+    Returns: Density per steradian; 0 for ``mz <= 0``.
     """
     if mz <= 0.0:
         return 0.0
@@ -282,18 +256,10 @@ def pdf(mx, my, mz, params):
 def D(mx, my, mz, params):
     """Gaussian distribution of normals ``C exp(-theta^2/(2 sigma^2))/cos theta`` (IL eq. 13).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        Output of :func:`params_from`.
-
-    Returns
-    -------
-    float
-        ``D(m)`` in 1/sr; 0 for ``mz <= 0``.  ``D ~ 1/mz`` grows without
-        bound toward the horizon (``inf`` once ``pdf/mz`` overflows).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: output of :func:`params_from`.
+    Returns: ``D(m)`` in 1/sr; 0 for ``mz <= 0``.  ``D ~ 1/mz`` grows without bound toward
+    the horizon (``inf`` once ``pdf/mz`` overflows).
     """
     if mz <= 0.0:
         return 0.0
@@ -307,17 +273,9 @@ def smith_lambda(vx, vy, vz, params):
     ``Lambda(v) = int D(m) max(0, -v.m) dw_m / (v.n)`` (H sec. 4) diverges like
     ``int dtheta_m / cos theta_m`` at the horizon because ``D ~ 1/cos theta_m``.
 
-    Parameters
-    ----------
-    vx, vy, vz : float
-        Unit direction.
-    params : ndarray
-        Output of :func:`params_from` (unused).
-
-    Returns
-    -------
-    float
-        0 for ``v = n`` (``vz >= 1`` or no tangential part), else ``inf``.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: output of :func:`params_from`
+    (unused). Returns: 0 for ``v = n`` (``vz >= 1`` or no tangential part), else ``inf``.
     """
     if vz >= 1.0:
         return 0.0

@@ -63,18 +63,9 @@ def sample(u1, u2, params):
     ``tan theta_m = sqrt(expm1(-2 log1p(-u1)/(alpha_p + 2)))`` without
     cancellation near the normal.
 
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)`` (``u1 >= 1`` is clamped to the largest float below 1).
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
-        Finite ``tan theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the
-        tangent is 0).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: Finite ``tan
+    theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the tangent is 0).
     """
     if u1 >= 1.0:
         u1 = _ONE_MINUS_ULP
@@ -95,18 +86,8 @@ def sample_disk(a, b, s, params):
     :func:`vcavity.microfacet.beckmann.sample_disk`): ``cos^2 theta_m = s^(2/(alpha_p + 2))``
     (W eq. 31).
 
-    Parameters
-    ----------
-    a, b : float
-        A point of the open unit disk other than the centre.
-    s : float
-        ``a*a + b*b`` in (0, 1).
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``.
     """
     inv = 1.0 / math.sqrt(s)
     tan2 = math.expm1(-2.0 * math.log(s) / (params[0] + 2.0))
@@ -117,17 +98,9 @@ def sample_disk(a, b, s, params):
 def D(mx, my, mz, params):
     """Phong distribution of normals (W eq. 30).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    float
-        ``D(m)`` in 1/sr; 0 for ``mz <= 0``.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: ``D(m)`` in
+    1/sr; 0 for ``mz <= 0``.
     """
     if mz <= 0.0:
         return 0.0
@@ -139,17 +112,9 @@ def D(mx, my, mz, params):
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    float
-        Density per steradian.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: Density per
+    steradian.
     """
     if mz <= 0.0:
         return 0.0
@@ -164,17 +129,9 @@ def smith_lambda(vx, vy, vz, params):
     Beckmann Lambda with ``a = sqrt(0.5 alpha_p + 1)/tan theta_v``; see the
     module docstring for its measured accuracy.
 
-    Parameters
-    ----------
-    vx, vy, vz : float
-        Unit direction.
-    params : ndarray
-        ``[exponent]``.
-
-    Returns
-    -------
-    float
-        ``Lambda >= 0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0``.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: ``Lambda >=
+    0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0``.
     """
     if vz >= 1.0:
         return 0.0

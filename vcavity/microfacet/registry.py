@@ -27,6 +27,17 @@ diverges and only V-cavity masking applies), and
   ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
   not exact).
 
+Arguments and results of the jitted scalars, the same in every module (each module's
+docstrings add only what is its own): ``mx, my, mz`` a unit microfacet normal; ``vx, vy,
+vz`` a unit direction; ``u1, u2`` uniforms in ``[0, 1)`` (``u1 >= 1`` is clamped to the
+largest float below 1); ``(a, b)`` a point of the open unit disk other than the centre and
+``s = a*a + b*b`` in (0, 1): ``s`` is uniform and independent of the direction
+``(a, b)/sqrt(s)`` (Marsaglia's polar method), so ``sample_disk`` samples ``D(m)(m.n)``
+exactly as ``sample`` does, without cos and sin; ``params`` the float64 array of the
+module's ``params_from``. The samplers return a finite ``tan_theta_m >= 0`` and a unit
+azimuth pair ``(cos_phi_m, sin_phi_m)``; ``D`` is in 1/sr and ``pdf`` per steradian, both 0
+for ``mz <= 0``; ``smith_lambda >= 0`` is 0 for ``vz >= 1`` and ``inf`` for ``vz <= 0``.
+
 Dispatch
 --------
 ``kind`` is a distribution's position in :data:`DISTRIBUTION_MODULES`. In jitted code

@@ -119,19 +119,11 @@ def sample(u1, u2, params):
     ``r^2 = z expm1(-log1p(-u1)/z)`` (the inverse of the radial CDF
     ``1 - (1 + r^2/z)^-z``), ``phi' = 2 pi u2``; ``m = normalize(-s_x, -s_y, 1)``.
 
-    Parameters
-    ----------
-    u1, u2 : float
-        Uniforms in ``[0, 1)`` (``u1 >= 1`` is clamped to the largest float below 1).
-    params : ndarray
-        See the module docstring.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
-        Finite ``tan theta_m >= 0`` (at most ~7e15 max(alpha), as gamma -> 1.5, and at
-        most ``common.MAX_TAN_THETA``) and a unit azimuth pair (``(1, 0)`` when the
-        tangent is 0, e.g. for ``u1 <= 0`` or when ``r^2`` underflows).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. Returns:
+    Finite ``tan theta_m >= 0`` (at most ~7e15 max(alpha), as gamma -> 1.5, and at most
+    ``common.MAX_TAN_THETA``) and a unit azimuth pair (``(1, 0)`` when the tangent is 0,
+    e.g. for ``u1 <= 0`` or when ``r^2`` underflows).
     """
     if u1 >= 1.0:
         u1 = _ONE_MINUS_ULP
@@ -153,23 +145,10 @@ sample_normal = normal_sampler(sample)
 def sample_disk(a, b, s, params):
     """:func:`sample` with ``u1 = 1 - s`` and azimuth ``(a, b)/sqrt(s)``: the kernel's trig-free map.
 
-    For a point ``(a, b)`` uniform in the unit disk, ``s = a^2 + b^2`` is uniform and
-    independent of the direction ``(a, b)/sqrt(s)`` (Marsaglia's polar method), so this
-    samples ``D(m)(m.n)`` exactly as :func:`sample` does, without cos and sin.
-
-    Parameters
-    ----------
-    a, b : float
-        A point of the open unit disk other than the centre.
-    s : float
-        ``a*a + b*b`` in (0, 1); below ``2^-53`` the radius is that of ``s = 2^-53``
-        (where :func:`sample` clamps ``u1``).
-    params : ndarray
-        See the module docstring.
-
-    Returns
-    -------
-    tan_theta_m, cos_phi_m, sin_phi_m : float
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. ``s``: ``a*a
+    + b*b`` in (0, 1); below ``2^-53`` the radius is that of ``s = 2^-53`` (where
+    :func:`sample` clamps ``u1``).
     """
     sr = s if s > _S_MIN else _S_MIN
     # r^2 = z expm1(-log(1 - u1)/z) = z expm1(-log(s)/z) (physics.md sec. 10)
@@ -197,18 +176,10 @@ def D(mx, my, mz, params):
     when alpha is in [1e-50, 1e50] and ``mz > 1e-50``; otherwise the same in logarithms
     (no overflow, underflow or 0/0 for any alpha and grazing ``m``).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        See the module docstring.
-
-    Returns
-    -------
-    float
-        ``D(m)`` in 1/sr; 0 for ``mz <= 0``; ``inf`` only where ``D`` exceeds the float64
-        range (the peak for ``alpha_x alpha_y < ~1e-308``; gamma near 1.5 at ``mz < 1e-300``).
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. Returns:
+    ``D(m)`` in 1/sr; 0 for ``mz <= 0``; ``inf`` only where ``D`` exceeds the float64 range
+    (the peak for ``alpha_x alpha_y < ~1e-308``; gamma near 1.5 at ``mz < 1e-300``).
     """
     if mz <= 0.0:
         return 0.0
@@ -239,17 +210,9 @@ def D(mx, my, mz, params):
 def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
-    Parameters
-    ----------
-    mx, my, mz : float
-        Unit microfacet normal.
-    params : ndarray
-        See the module docstring.
-
-    Returns
-    -------
-    float
-        Density per steradian.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. Returns:
+    Density per steradian.
     """
     return D(mx, my, mz, params) * mz
 
@@ -366,18 +329,10 @@ def smith_lambda(vx, vy, vz, params):
 
     ``1/a = alpha_o tan theta_v = hypot(vx ax, vy ay) / vz`` (no overflow for alpha up to 1e300).
 
-    Parameters
-    ----------
-    vx, vy, vz : float
-        Unit direction.
-    params : ndarray
-        See the module docstring.
-
-    Returns
-    -------
-    float
-        ``Lambda >= 0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0`` (grazing limit; ``chi+``
-        is the caller's business below the horizon) and where it overflows.
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. Returns:
+    ``Lambda >= 0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0`` (grazing limit; ``chi+`` is
+    the caller's business below the horizon) and where it overflows.
     """
     if vz >= 1.0:
         return 0.0
