@@ -32,6 +32,8 @@ import importlib
 from dataclasses import dataclass
 from pathlib import Path
 
+from vcavity.io.schema import orders_text
+
 #: --format value -> module implementing it (the one place a format is registered)
 FORMAT_MODULES = {
     "rgl": "vcavity.export.rgl",
@@ -94,8 +96,8 @@ def order_data(table, request: ExportRequest):
     """
     orders = [int(k) for k in table.order]
     if request.order not in orders:
-        have = ", ".join("0 (f_inf)" if k == 0 else str(k) for k in orders)
-        raise ExportRefused(f"--order = {request.order_text!r}: table {str(table.path)!r} has orders {have}")
+        raise ExportRefused(f"--order = {request.order_text!r}: table {str(table.path)!r} has orders "
+                            f"{orders_text(orders)}")
     index = orders.index(request.order)
     return table.brdf[:, index, :], index
 

@@ -30,7 +30,7 @@ import numpy as np
 
 from vcavity._version import __version__
 from vcavity.export import ExportRefused, ExportRequest
-from vcavity.io.schema import order_name
+from vcavity.io.schema import order_name, orders_text
 from vcavity.sweep.albedo import albedo, albedo_stderr, order_position, stderr_rule
 
 NAME = "albedo-lut"
@@ -162,7 +162,7 @@ def prepare(sweep, request: ExportRequest) -> AlbedoLut:
         out = sweep.path if sweep.path is not None else "OUT.h5"
         raise ExportRefused(f"sweep {shown}: {int(np.sum(done != 1))} of {done.size} points are not done; "
                             f"run vcavity sweep {spec} -o {out} --resume first")
-    have = ", ".join("0 (f_inf)" if int(k) == 0 else str(int(k)) for k in sweep.order)
+    have = orders_text(sweep.order)
     if order_position(sweep, 1) is None:
         raise ExportRefused(f"sweep {shown}: has no order 1 (orders {have}); the LUT always holds E_f1")
     if order_position(sweep, request.order) is None:

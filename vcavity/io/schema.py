@@ -167,6 +167,21 @@ def order_name(k: int) -> str:
     return "f_inf" if int(k) == 0 else f"f{int(k)}"
 
 
+def orders_text(orders) -> str:
+    """The orders of an ``order`` axis as ``--order`` spells them, e.g. ``"1, 2, 0 (f_inf)"``.
+
+    Parameters
+    ----------
+    orders : iterable of int
+        Values of the ``order`` axis (0 for all orders).
+
+    Returns
+    -------
+    str
+    """
+    return ", ".join("0 (f_inf)" if int(k) == 0 else str(int(k)) for k in orders)
+
+
 def is_scale(name: str) -> bool:
     """Whether a dataset is the dimension scale of an axis.
 

@@ -26,6 +26,7 @@ import os
 from pathlib import Path
 
 # aliased: `map` and `slice` would shadow the builtins in this namespace
+from vcavity.io.schema import orders_text
 from vcavity.plots import albedo as albedo_kind
 from vcavity.plots import map as map_kind
 from vcavity.plots import slice as slice_kind
@@ -36,7 +37,6 @@ from vcavity.plots.request import (
     PlotRequest,
     check_output,
     default_output,
-    orders_text,
     parse_order,
     select_theta,
     sort_orders,
@@ -90,7 +90,7 @@ def _check_table_request(table, module, output, theta_i_deg, orders, scale, mode
             if k not in present:
                 need = " (run with track_all_orders = true)" if k == 0 else ""
                 raise PlotError(f"--order = {'f_inf' if k == 0 else k}: table {table.path.name} has orders "
-                                f"{orders_text(table)}{need}")
+                                f"{orders_text(table.order)}{need}")
     elif module.DEFAULT_ORDERS == "all":
         chosen = tuple(present)
     else:

@@ -50,11 +50,6 @@ def parse_order(text) -> int:
                     "or 0 / inf / f_inf for all orders")
 
 
-def orders_text(table):
-    """The orders a table holds, as ``--order`` spells them (``"1, 2, 0 (f_inf)"``)."""
-    return ", ".join("0 (f_inf)" if int(k) == 0 else str(int(k)) for k in table.order)
-
-
 def default_output(table, kind: str) -> Path:
     """``<table stem>_<kind>.png`` beside the table."""
     return table.path.with_name(f"{table.path.stem}_{kind}.png")

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from vcavity.io.schema import order_name
+from vcavity.io.schema import order_name, orders_text
 from vcavity.plots.request import (
     PlotError,
     PlotRequest,
@@ -112,7 +112,7 @@ def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
             raise PlotError("-o is needed: the sweep has no file to put the plot beside")
         output = sweep.path.with_name(f"{sweep.path.stem}_sweep.png")
     out = check_output(output)
-    have = ", ".join("0 (f_inf)" if int(k) == 0 else str(int(k)) for k in sweep.order)
+    have = orders_text(sweep.order)
     if orders:
         chosen = tuple(dict.fromkeys(parse_order(o) for o in orders))
         for k in chosen:
