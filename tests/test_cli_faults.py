@@ -468,3 +468,31 @@ def test_ctrl_c_while_compiling(box, good_table, tmp_path_factory, command):
     expected = "vcavity: interrupted; no table written" if command == "run" else "vcavity: interrupted"
     assert err.splitlines()[-1] == expected
     assert snapshot(box) == before
+
+
+class _Exited(Exception):
+    pass
+
+
+@pytest.mark.parametrize("status", [0, 1, 2, 130])
+def test_console_entry_skips_teardown_only_after_an_interrupt(monkeypatch, status):
+    """After Ctrl-C the console entry ends with os._exit (no teardown of half-built llvmlite
+    objects, which once crashed with SIGSEGV); every other status is a normal sys.exit."""
+    import vcavity.cli as cli_package
+
+    calls = []
+    monkeypatch.setattr(cli_package, "main", lambda: status)
+
+    def fake_exit(code):
+        calls.append(code)
+        raise _Exited
+
+    monkeypatch.setattr(cli_package.os, "_exit", fake_exit)
+    if status == 130:
+        with pytest.raises(_Exited):
+            cli_package.console_main()
+        assert calls == [130]
+    else:
+        with pytest.raises(SystemExit) as info:
+            cli_package.console_main()
+        assert info.value.code == status and calls == []

@@ -14,6 +14,7 @@ this package, so a new subcommand is a new module plus one entry in :data:`COMMA
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 
 from vcavity.cli import compare, export, info, plot, run, sweep
@@ -100,5 +101,26 @@ def _ignore_unraisable(unraisable) -> None:
     """``sys.unraisablehook`` after an interrupt: report nothing."""
 
 
+def console_main() -> None:
+    """The ``vcavity`` console script and ``python -m vcavity``: :func:`main`, then exit.
+
+    After an interrupt the process ends with ``os._exit`` once stdout and stderr are
+    flushed, skipping the interpreter's teardown: a Ctrl-C inside Numba's compiler can
+    leave llvmlite objects half built, and their destructors at teardown have crashed the
+    process (status -11 after the "interrupted" line, seen once in CI). By then nothing of
+    ours is pending: tables, checkpoints and temporary files were settled before
+    :func:`main` returned.
+    """
+    status = main()
+    if status == EXIT_INTERRUPTED:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except (OSError, ValueError):  # a closed pipe: nothing more can be said
+                pass
+        os._exit(status)
+    sys.exit(status)
+
+
 if __name__ == "__main__":  # pragma: no cover
-    sys.exit(main())
+    console_main()
