@@ -138,8 +138,8 @@ def _piece(idx, val, count, keys, t0, t1, u2, ix, iy, iz, dist_kind, params, fac
 
 
 @njit(cache=True)
-def _moved(dirs_a, dirs_b, values_a, values_b, keys_a):
-    """How far the lit slots' exit directions moved (and how much their weights changed)."""
+def _moved(dirs_a, dirs_b, keys_a):
+    """How far the exit directions of the slots lit at the step's start moved."""
     moved = 0.0
     for slot in range(sg.N_SLOTS):
         if keys_a[slot] >= 0:
@@ -174,7 +174,7 @@ def _ray(u2, incident, dist_kind, params, facet_kind, facet_data, unit, max_boun
         tb = min(tau + h, 1.0)
         _point(tb, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order,
                resolution, buf, keys_b, values_b, dirs_b)
-        if _moved(dirs_a, dirs_b, values, values_b, keys_a) > step_max and tb - tau > 1e-12:
+        if _moved(dirs_a, dirs_b, keys_a) > step_max and tb - tau > 1e-12:
             h = 0.5 * (tb - tau)
             continue
         # cut [tau, tb] where the state changes (each change bracketed, then bisected)
