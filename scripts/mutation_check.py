@@ -47,6 +47,16 @@ class Mutant:
 
 
 MUTANTS = (
+    Mutant("groove-counts-swapped-at-boundary", "vcavity/analytic/specular_groove.py",
+           "pieces = ((j_lo, x_break + 1.0), (j_hi, x_hi - x_break))",
+           "pieces = ((j_hi, x_break + 1.0), (j_lo, x_hi - x_break))",
+           "the two bounce counts of one side credited to each other's entry interval (n - 1 / n boundary)",
+           ("tests/analytic/test_specular_groove.py",)),
+    Mutant("groove-one-reflectance-too-few", "vcavity/analytic/specular_groove.py",
+           "for b in range(1, min(n, max_bounces) + 1):",
+           "for b in range(2, min(n, max_bounces) + 1):",
+           "the survival product skips the first hit's reflectance",
+           ("tests/analytic/test_specular_groove.py",)),
     Mutant("block-binning-no-exact-pass", "vcavity/sensor/binning.py",
            "        if cells[j] < 0:",
            "        if cells[j] < -10**18:",
