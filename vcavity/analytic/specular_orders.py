@@ -1,5 +1,5 @@
 """Every bounce order of a V-cavity with specular facets, per sensor cell, without a random
-path (physics.md sec. 12): the deterministic model behind ``compare --order K`` and the
+path (physics.md sec. 13): the deterministic model behind ``compare --order K`` and the
 ``exact`` estimator.
 
 For mirror, conductor and ``kd = 0`` dielectric facets the probability that a walk's path
@@ -7,27 +7,29 @@ leaves after exactly ``k`` bounces into cell ``c`` is
 
     P_k(c) = ∫∫ Σ_slots fraction · survival · [k bounces] [exit in c] du1 du2,
 
-the groove drawn through the distribution's sampler ``(u1, u2) -> m`` of pdf
-``D(m)(m.n)`` (physics.md sec. 2) and the entry point integrated in closed form by
-:func:`vcavity.analytic.specular_groove.groove_outcomes` (at most four outcomes, each in a
-slot whose share of the opening varies continuously with ``m``).
+the groove drawn through the distribution's sampler ``(u1, u2) -> m`` (pdf ``D(m)(m.n)``,
+physics.md sec. 2: in ``(u1, u2)`` the grooves are uniform) and the entry point
+integrated in closed form by :func:`vcavity.analytic.specular_groove.groove_outcomes` (at
+most four outcomes, each in a slot whose share of the opening varies continuously).
 
-Quadrature. Along each ray ``u2 = const`` (``u1 = sin²(π τ / 2)``, which removes the
-square-root behaviour of the sampler at both ends) the integrand is smooth between the
-points where a slot's exit direction crosses a cell edge, its bounce count changes, or
-the groove changes regime (:data:`~vcavity.analytic.specular_groove.SPLIT_LEFT` ...).
-The ray is marched in steps that move no exit direction by more than
-:data:`~vcavity.analytic.quadrature.STEP_CELLS` cells, every change is located by
-bisection (on the sensor's own binning, so a piece is credited to the cell the walk counts
-it in) and each piece gets a Gauss-Legendre rule. Over ``u2`` the ray integrals are
-continuous with kinks; pieces of ``u2`` are halved until a rule and its two halves agree
-within ``tolerance`` times the piece's width in the L1 norm over all cells and orders.
+Quadrature: a mesh pushed forward onto the sensor (physics.md sec. 13). The square
+``(τ, u2)``, ``u1 = sin²(π τ / 2)`` (which removes the sampler's square-root behaviour at
+both ends), is cut into ``M x M`` quads. At each vertex every slot's value (fraction ·
+survival), bounce count and exit direction, as a point of the sensor's square in cell
+units, are evaluated once. A quad whose four corners share a slot's bounce count carries
+the slot's mass (its bilinear interpolant times the exact ``du1/dτ``) to the sensor as
+two triangles whose images are taken affine: each image triangle is clipped against the
+cells and every clipped polygon gets the exact integral of the linear density over it.
+Where a slot's bounce count differs between corners its fraction vanishes at the change
+(physics.md sec. 12), and each corner's mass goes to its own cell. Every vertex's mass is
+credited somewhere (a cell of its order, or the truncated share), so mirror facets
+conserve energy to rounding, and the error of a cell is second order in the mesh width.
 
-Error estimate. Per cell and order, the sum of the accepted halving differences (the
-azimuthal error) plus the change when the radial rule is halved; both are differences
-between a rule and a coarser one, reported as the error of the finer (conservative where
-the rules converge; tests/analytic/test_specular_orders.py forces a coarse rule and
-checks the estimate against a much finer one).
+Error estimate: the mesh is doubled until the L1 change of every cell of every order,
+summed, is within ``tolerance`` of what exits; each cell's estimate is its change at the
+last doubling (conservative for a second-order rule, where it is about three times the
+error of the finer mesh: tests/analytic/test_specular_orders.py holds it against a much
+finer mesh).
 """
 
 from __future__ import annotations
@@ -40,187 +42,246 @@ from numba import prange
 
 from vcavity._numba.jit import njit
 from vcavity.analytic import specular_groove as sg
-from vcavity.analytic.quadrature import MAX_STEP, STEP_CELLS
 from vcavity.analytic.single_bounce import ModelNotApplicable
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
-from vcavity.sensor.binning import direction_to_cell
+from vcavity.sensor.binning import hemisphere_to_square
 
-#: Gauss-Legendre nodes per ``u2`` piece and per ``τ`` piece.
-DEFAULT_AZIMUTH_NODES = 6
-DEFAULT_RADIAL_NODES = 6
-#: Default L1 tolerance (over all cells and orders, in probability per path) per unit of u2.
-DEFAULT_TOLERANCE = 1e-5
-#: Starting pieces of ``u2``, and the most halvings and pieces of the adaptive rule.
-START_PIECES = 16
-MAX_DEPTH = 22
-MAX_PIECES = 1 << 14
-#: Bisection of a state change stops below this width in ``τ``.
-BISECTION_WIDTH = 1e-10
+#: Default tolerance: L1 change over all cells and orders at the last doubling, relative to
+#: the share of paths that exit.
+DEFAULT_TOLERANCE = 1e-3
+#: Quads per side of the first mesh, and the finest mesh a tolerance may ask for.
+START_QUADS = 64
+MAX_QUADS = 4096
+#: Fixed number of accumulation chunks (sums in a fixed order: the result does not depend
+#: on the thread count).
+N_CHUNKS = 64
 #: Largest ``u1`` (the sampler's deepest groove the quadrature reaches).
 _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
-_TRUNCATED = -2  # key of a slot whose path exceeds the bounce cap
-_DARK = -1  # key of an empty slot (no entry has this outcome)
-
-
-@njit(cache=True)
-def _point(tau, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces,
-           max_order, resolution, buf, keys, values, dirs):
-    """Outcomes of the groove at ``(τ, u2)``: per slot its key, value and exit direction.
-
-    ``keys[s]`` is ``row * n_cells + cell`` (row ``min(n, max_order + 1) - 1``: orders
-    ``1 .. max_order`` and the rest), :data:`_TRUNCATED` or :data:`_DARK`; ``keys[N_SLOTS]``
-    the groove's regime. ``values[s]`` is ``fraction · survival · du1/dτ``.
-    """
-    s = math.sin(_HALF_PI * tau)
-    u1 = min(s * s, _U1_MAX)
-    tan_m, cos_phi, sin_phi = distributions.sample(dist_kind, u1, u2, params)
-    # d = -i in the groove frame x' = (cos φ, sin φ, 0), y' = (-sin φ, cos φ, 0) (sec. 5)
-    dx = -(ix * cos_phi + iy * sin_phi)
-    dy = -(iy * cos_phi - ix * sin_phi)
-    dz = -iz
-    keys[sg.N_SLOTS] = sg.groove_outcomes(buf, tan_m, dx, dz, facet_kind, facet_data, unit, max_bounces)
-    jacobian = _HALF_PI * math.sin(math.pi * tau)
-    n_cells = resolution * resolution
-    for slot in range(sg.N_SLOTS):
-        fraction = buf[slot, sg.FRACTION]
-        values[slot] = fraction * buf[slot, sg.SURVIVAL] * jacobian
-        ex, ez = buf[slot, sg.EXIT_X], buf[slot, sg.EXIT_Z]
-        # back to the world frame; the component along the groove is the incoming one
-        ox = ex * cos_phi - dy * sin_phi
-        oy = ex * sin_phi + dy * cos_phi
-        dirs[slot, 0], dirs[slot, 1], dirs[slot, 2] = ox, oy, ez
-        if not fraction > 0.0:
-            keys[slot] = _DARK
-            continue
-        n = int(buf[slot, sg.BOUNCES])
-        if n > max_bounces:
-            keys[slot] = _TRUNCATED
-        elif ez > 0.0:
-            row = min(n, max_order + 1) - 1
-            keys[slot] = row * n_cells + direction_to_cell(ox, oy, ez, resolution)
-        else:  # only through rounding at the horizon: nothing to credit
-            keys[slot] = _DARK
-
-
-@njit(cache=True)
-def _same(a, b):
-    for k in range(a.shape[0]):
-        if a[k] != b[k]:
-            return False
-    return True
-
-
-@njit(cache=True)
-def _piece(idx, val, count, keys, t0, t1, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit,
-           max_bounces, max_order, resolution, gl_x, gl_w, buf, keys_tmp, values, dirs, n_keys):
-    """Append the Gauss-Legendre integral over ``[t0, t1]`` of each lit slot (state ``keys``)."""
-    if t1 <= t0:
-        return count
-    half = 0.5 * (t1 - t0)
-    centre = 0.5 * (t1 + t0)
-    acc = np.zeros(sg.N_SLOTS)
-    for j in range(gl_x.shape[0]):
-        _point(centre + half * gl_x[j], u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit,
-               max_bounces, max_order, resolution, buf, keys_tmp, values, dirs)
-        for slot in range(sg.N_SLOTS):
-            acc[slot] += gl_w[j] * values[slot]
-    for slot in range(sg.N_SLOTS):
-        key = keys[slot]
-        if key == _DARK or acc[slot] == 0.0:
-            continue
-        if count < idx.shape[0]:
-            idx[count] = n_keys - 1 if key == _TRUNCATED else key
-            val[count] = half * acc[slot]
-        count += 1
-    return count
-
-
-@njit(cache=True)
-def _moved(dirs_a, dirs_b, keys_a):
-    """How far the exit directions of the slots lit at the step's start moved."""
-    moved = 0.0
-    for slot in range(sg.N_SLOTS):
-        if keys_a[slot] >= 0:
-            d = math.sqrt((dirs_b[slot, 0] - dirs_a[slot, 0]) ** 2 + (dirs_b[slot, 1] - dirs_a[slot, 1]) ** 2
-                          + (dirs_b[slot, 2] - dirs_a[slot, 2]) ** 2)
-            moved = max(moved, d)
-    return moved
-
-
-@njit(cache=True)
-def _ray(u2, incident, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order, resolution,
-         gl_x, gl_w, idx, val, n_keys):
-    """Integrals over ``τ`` of one ray, appended to ``idx``/``val``; returns their count."""
-    ix, iy, iz = incident[0], incident[1], incident[2]
-    buf = np.empty((sg.N_SLOTS, sg.N_FIELDS))
-    keys_a = np.empty(sg.N_SLOTS + 1, np.int64)
-    keys_b = np.empty(sg.N_SLOTS + 1, np.int64)
-    keys_m = np.empty(sg.N_SLOTS + 1, np.int64)
-    keys_tmp = np.empty(sg.N_SLOTS + 1, np.int64)
-    values = np.empty(sg.N_SLOTS)
-    values_b = np.empty(sg.N_SLOTS)
-    dirs_a = np.empty((sg.N_SLOTS, 3))
-    dirs_b = np.empty((sg.N_SLOTS, 3))
-    dirs_m = np.empty((sg.N_SLOTS, 3))
-    step_max = STEP_CELLS / resolution
-    count = 0
-    tau = 0.0
-    _point(0.0, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order,
-           resolution, buf, keys_a, values, dirs_a)
-    h = MAX_STEP
-    while tau < 1.0:
-        tb = min(tau + h, 1.0)
-        _point(tb, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order,
-               resolution, buf, keys_b, values_b, dirs_b)
-        if _moved(dirs_a, dirs_b, keys_a) > step_max and tb - tau > 1e-12:
-            h = 0.5 * (tb - tau)
-            continue
-        # cut [tau, tb] where the state changes (each change bracketed, then bisected)
-        t0 = tau
-        keys_m[:] = keys_a
-        for _ in range(256):  # a few changes per step; the bound keeps it finite
-            if _same(keys_m, keys_b):
-                break
-            lo, hi = t0, tb
-            while hi - lo > BISECTION_WIDTH:
-                mid = 0.5 * (lo + hi)
-                _point(mid, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces,
-                       max_order, resolution, buf, keys_tmp, values, dirs_m)
-                if _same(keys_tmp, keys_m):
-                    lo = mid
-                else:
-                    hi = mid
-            count = _piece(idx, val, count, keys_m, t0, hi, u2, ix, iy, iz, dist_kind, params, facet_kind,
-                           facet_data, unit, max_bounces, max_order, resolution, gl_x, gl_w, buf, keys_tmp,
-                           values, dirs_m, n_keys)
-            t0 = hi
-            _point(hi, u2, ix, iy, iz, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order,
-                   resolution, buf, keys_m, values, dirs_m)
-        count = _piece(idx, val, count, keys_m, t0, tb, u2, ix, iy, iz, dist_kind, params, facet_kind,
-                       facet_data, unit, max_bounces, max_order, resolution, gl_x, gl_w, buf, keys_tmp, values,
-                       dirs_m, n_keys)
-        tau = tb
-        keys_a[:] = keys_b
-        dirs_a[:] = dirs_b
-        values[:] = values_b
-        h = min(2.0 * h, MAX_STEP)
-    return count
+_MAX_POLYGON = 12  # a triangle clipped by four half-planes has at most 7 corners
 
 
 @njit(cache=True, parallel=True)
-def _rays(u2_nodes, incident, dist_kind, params, facet_kind, facet_data, unit, max_bounces, max_order,
-          resolution, gl_x, gl_w, capacity, n_keys):
-    """Sparse ``(key, value)`` integrals of every ray; ``counts[r] > capacity``: overflow."""
-    n = u2_nodes.shape[0]
-    idx = np.zeros((n, capacity), np.int64)
-    val = np.zeros((n, capacity))
-    counts = np.zeros(n, np.int64)
-    for r in prange(n):
-        counts[r] = _ray(u2_nodes[r], incident, dist_kind, params, facet_kind, facet_data, unit, max_bounces,
-                         max_order, resolution, gl_x, gl_w, idx[r], val[r], n_keys)
-    return idx, val, counts
+def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, unit, max_bounces, resolution):
+    """Per vertex ``(τ, u2)`` and slot: value (fraction · survival), bounce count (-1: no
+    such outcome) and the exit direction as a point of the sensor square in cell units."""
+    n_tau, n_u2 = taus.size, u2s.size
+    value = np.zeros((n_tau, n_u2, sg.N_SLOTS))
+    bounces = np.full((n_tau, n_u2, sg.N_SLOTS), -1, np.int64)
+    image = np.zeros((n_tau, n_u2, sg.N_SLOTS, 2))
+    ix, iy, iz = incident[0], incident[1], incident[2]
+    half_n = 0.5 * resolution
+    for r in prange(n_tau):
+        buf = np.empty((sg.N_SLOTS, sg.N_FIELDS))
+        s = math.sin(_HALF_PI * taus[r])
+        u1 = min(s * s, _U1_MAX)
+        for q in range(n_u2):
+            tan_m, cos_phi, sin_phi = distributions.sample(dist_kind, u1, u2s[q], params)
+            # d = -i in the groove frame x' = (cos φ, sin φ, 0), y' = (-sin φ, cos φ, 0) (sec. 5)
+            dx = -(ix * cos_phi + iy * sin_phi)
+            dy = -(iy * cos_phi - ix * sin_phi)
+            sg.groove_outcomes(buf, tan_m, dx, -iz, facet_kind, facet_data, unit, max_bounces)
+            for slot in range(sg.N_SLOTS):
+                fraction = buf[slot, sg.FRACTION]
+                if not fraction > 0.0:
+                    continue
+                value[r, q, slot] = fraction * buf[slot, sg.SURVIVAL]
+                bounces[r, q, slot] = int(buf[slot, sg.BOUNCES])
+                ex = buf[slot, sg.EXIT_X]
+                # back to the world frame; the component along the groove is the incoming one
+                u, v = hemisphere_to_square(ex * cos_phi - dy * sin_phi, ex * sin_phi + dy * cos_phi,
+                                            buf[slot, sg.EXIT_Z])
+                image[r, q, slot, 0] = (u + 1.0) * half_n
+                image[r, q, slot, 1] = (v + 1.0) * half_n
+    return value, bounces, image
+
+
+def tau_weights(n_quads):
+    """Weights of the hat functions of ``n_quads`` equal τ-intervals against ``du1/dτ``.
+
+    ``du1/dτ = (π/2) sin(π τ)``; on ``[a, b]`` the weights of the end points are
+    ``∫ (b - τ)/h du1`` and ``∫ (τ - a)/h du1``, in closed form. Returns ``(lo, hi)``, one
+    per interval; all of them sum to 1 (the sampler's whole measure).
+    """
+    t = np.arange(n_quads + 1) / n_quads
+    f0 = -0.5 * np.cos(math.pi * t)  # ∫ (π/2) sin(π τ) dτ
+    f1 = -0.5 * t * np.cos(math.pi * t) + np.sin(math.pi * t) / (2.0 * math.pi)  # ∫ τ (π/2) sin(π τ) dτ
+    mass = np.diff(f0)
+    hi = (np.diff(f1) - t[:-1] * mass) * n_quads
+    return mass - hi, hi
+
+
+@njit(cache=True, inline="always")
+def _cell(x, y, resolution):
+    ix = min(max(int(math.floor(x)), 0), resolution - 1)
+    iy = min(max(int(math.floor(y)), 0), resolution - 1)
+    return iy * resolution + ix
+
+
+@njit(cache=True, inline="always")
+def _clip(px, py, n, qx, qy, axis, bound, keep_above):
+    """Sutherland-Hodgman: the part of polygon ``(px, py)[:n]`` on one side of a grid line."""
+    m = 0
+    for k in range(n):
+        ax, ay = px[k], py[k]
+        bx, by = px[(k + 1) % n], py[(k + 1) % n]
+        ca = ax if axis == 0 else ay
+        cb = bx if axis == 0 else by
+        a_in = ca >= bound if keep_above else ca <= bound
+        b_in = cb >= bound if keep_above else cb <= bound
+        if a_in:
+            qx[m], qy[m] = ax, ay
+            m += 1
+        if a_in != b_in:
+            f = (bound - ca) / (cb - ca)
+            qx[m], qy[m] = ax + f * (bx - ax), ay + f * (by - ay)
+            m += 1
+    return m
+
+
+@njit(cache=True)
+def splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, m0, m1, m2, mass, resolution, px, py, qx, qy):
+    """Add ``mass`` to the cells under the image triangle, each cell's share the integral of
+    the linear density with corner values ``m0, m1, m2`` over the triangle's part in it."""
+    lo_x = min(max(int(math.floor(min(x0, x1, x2))), 0), resolution - 1)
+    hi_x = min(max(int(math.floor(max(x0, x1, x2))), 0), resolution - 1)
+    lo_y = min(max(int(math.floor(min(y0, y1, y2))), 0), resolution - 1)
+    hi_y = min(max(int(math.floor(max(y0, y1, y2))), 0), resolution - 1)
+    if lo_x == hi_x and lo_y == hi_y:
+        acc[base + lo_y * resolution + lo_x] += mass
+        return
+    area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
+    total = m0 + m1 + m2
+    if abs(area2) < 1e-24 or not total > 0.0:  # degenerate image: the centroid's cell
+        acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
+        return
+    # two passes: the shares of the clipped parts, then the mass in proportion to them
+    # (normalised by their sum, so that a thin triangle's rounding cannot lose mass)
+    shares = 0.0
+    for sweep in range(2):
+        for cy in range(lo_y, hi_y + 1):
+            for cx in range(lo_x, hi_x + 1):
+                part = _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy)
+                if sweep == 0:
+                    shares += part
+                elif part > 0.0:
+                    acc[base + cy * resolution + cx] += mass * (part / shares)
+        if not shares > 0.0:  # rounding left nothing: the centroid's cell
+            acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
+            return
+
+
+@njit(cache=True, inline="always")
+def _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy):
+    """Integral over cell ``(cx, cy)`` of the linear density with corner values ``m0, m1, m2``
+    on the triangle (area and centroid of the clipped polygon: exact for a linear density)."""
+    px[0], py[0], px[1], py[1], px[2], py[2] = x0, y0, x1, y1, x2, y2
+    n = _clip(px, py, 3, qx, qy, 0, float(cx), True)
+    n = _clip(qx, qy, n, px, py, 0, float(cx + 1), False)
+    n = _clip(px, py, n, qx, qy, 1, float(cy), True)
+    n = _clip(qx, qy, n, px, py, 1, float(cy + 1), False)
+    if n < 3:
+        return 0.0
+    a2 = 0.0
+    gx = 0.0
+    gy = 0.0
+    for k in range(n):
+        cross = px[k] * py[(k + 1) % n] - px[(k + 1) % n] * py[k]
+        a2 += cross
+        gx += (px[k] + px[(k + 1) % n]) * cross
+        gy += (py[k] + py[(k + 1) % n]) * cross
+    if a2 == 0.0:
+        return 0.0
+    gx /= 3.0 * a2
+    gy /= 3.0 * a2
+    # barycentric coordinates of the centroid: the linear density there
+    l1 = ((gx - x0) * (y2 - y0) - (x2 - x0) * (gy - y0)) / area2
+    l2 = ((x1 - x0) * (gy - y0) - (gx - x0) * (y1 - y0)) / area2
+    return max(0.5 * abs(a2) * ((1.0 - l1 - l2) * m0 + l1 * m1 + l2 * m2), 0.0)
+
+
+@njit(cache=True)
+def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bounces, resolution, px, py, qx, qy,
+          masses, counts):
+    """Credit one slot's mass over the quad with lower-left vertex ``(r, q)``."""
+    rr = (r, r + 1, r + 1, r)
+    qq = (q, q, q + 1, q + 1)
+    w = (w_lo, w_hi, w_hi, w_lo)
+    total = 0.0
+    same = True
+    for k in range(4):
+        masses[k] = w[k] * value[rr[k], qq[k], slot]
+        counts[k] = bounces[rr[k], qq[k], slot]
+        total += masses[k]
+        if counts[k] != counts[0]:
+            same = False
+    if not total > 0.0:
+        return
+    n_cells = resolution * resolution
+    truncated = acc.shape[0] - 1
+    if same and counts[0] >= 1:
+        n = counts[0]
+        if n > max_bounces:
+            acc[truncated] += total
+            return
+        base = (min(n, max_order + 1) - 1) * n_cells
+        x0, y0 = image[rr[0], qq[0], slot, 0], image[rr[0], qq[0], slot, 1]
+        x1, y1 = image[rr[1], qq[1], slot, 0], image[rr[1], qq[1], slot, 1]
+        x2, y2 = image[rr[2], qq[2], slot, 0], image[rr[2], qq[2], slot, 1]
+        x3, y3 = image[rr[3], qq[3], slot, 0], image[rr[3], qq[3], slot, 1]
+        c0 = _cell(x0, y0, resolution)
+        if c0 == _cell(x1, y1, resolution) and c0 == _cell(x2, y2, resolution) and c0 == _cell(x3, y3, resolution):
+            acc[base + c0] += total
+            return
+        # two triangles; each carries the quad's mass in proportion to its linear integral
+        t_a = masses[0] + masses[1] + masses[2]
+        t_b = masses[0] + masses[2] + masses[3]
+        share = total / (t_a + t_b)
+        splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, masses[0], masses[1], masses[2], t_a * share,
+                        resolution, px, py, qx, qy)
+        splat_triangle(acc, base, x0, y0, x2, y2, x3, y3, masses[0], masses[2], masses[3], t_b * share,
+                        resolution, px, py, qx, qy)
+        return
+    # the bounce count changes inside the quad, where the slot's fraction vanishes: each
+    # corner's mass goes to its own cell
+    for k in range(4):
+        if not masses[k] > 0.0:
+            continue
+        n = counts[k]
+        if n > max_bounces:
+            acc[truncated] += masses[k]
+        else:
+            acc[(min(n, max_order + 1) - 1) * n_cells
+                + _cell(image[rr[k], qq[k], slot, 0], image[rr[k], qq[k], slot, 1], resolution)] += masses[k]
+
+
+@njit(cache=True, parallel=True)
+def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, resolution):
+    """Cell integrals ``[(order, cell) ..., truncated]`` of the mesh, summed in a fixed order."""
+    n_tau = value.shape[0] - 1
+    n_u2 = value.shape[1] - 1
+    n_keys = (max_order + 1) * resolution * resolution + 1
+    partial = np.zeros((N_CHUNKS, n_keys))
+    for chunk in prange(N_CHUNKS):
+        px = np.empty(_MAX_POLYGON)
+        py = np.empty(_MAX_POLYGON)
+        qx = np.empty(_MAX_POLYGON)
+        qy = np.empty(_MAX_POLYGON)
+        masses = np.empty(4)
+        counts = np.empty(4, np.int64)
+        acc = partial[chunk]
+        for r in range(chunk * n_tau // N_CHUNKS, (chunk + 1) * n_tau // N_CHUNKS):
+            wl = 0.5 * du2 * w_lo[r]
+            wh = 0.5 * du2 * w_hi[r]
+            for q in range(n_u2):
+                for slot in range(sg.N_SLOTS):
+                    _quad(acc, value, bounces, image, r, q, slot, wl, wh, max_order, max_bounces, resolution,
+                          px, py, qx, qy, masses, counts)
+    out = np.zeros(n_keys)
+    for chunk in range(N_CHUNKS):
+        out += partial[chunk]
+    return out
 
 
 #: The facet models whose hits can be pure specular reflections or absorptions.
@@ -241,7 +302,8 @@ class SpecularOrders:
     ``integrals[k - 1, c]`` is ``P_k(c)`` for ``k = 1 .. max_order``; row ``max_order``
     holds the orders beyond it (up to the bounce cap): f_inf is the sum of all rows.
     ``brdf = integrals / Ω⊥_c``. ``error`` has the same shape (conservative estimates);
-    ``truncated`` is the share of paths the walk's cap would truncate.
+    ``truncated`` is the share of paths the walk's cap would truncate. ``quads`` is the
+    number of quads per side of the finest mesh.
     """
 
     integrals: np.ndarray
@@ -250,6 +312,7 @@ class SpecularOrders:
     truncated_error: float
     max_order: int
     max_bounces: int
+    quads: int
 
     @property
     def exited(self) -> float:
@@ -262,58 +325,22 @@ class SpecularOrders:
         return max(0.0, 1.0 - self.exited - self.truncated)
 
 
-class _Rule:
-    """The sparse ray integrals of pieces of ``u2`` for one incident direction."""
-
-    def __init__(self, material, incident, resolution, max_order, max_bounces):
-        self.incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
-        self.kind, self.params = distributions.params_from(material.distribution, material.distribution_params)
-        self.facet_kind, _, self.facet_data = facets.prepare(material.facet, material.facet_params)
-        self.unit = material.facet == "mirror"
-        self.resolution = int(resolution)
-        self.max_order = int(max_order)
-        self.max_bounces = int(max_bounces)
-        self.n_cells = self.resolution ** 2
-        self.n_keys = (self.max_order + 1) * self.n_cells + 1  # the last key: truncated
-        self.capacity = 2048
-        self.rays = 0  # rays traced so far (for benchmarks)
-
-    def pieces(self, lo, hi, n_azimuth, n_radial):
-        """Per piece ``[lo_k, hi_k]`` of u2, the sparse integral: ``(piece, key, value)``."""
-        x, w = np.polynomial.legendre.leggauss(int(n_azimuth))
-        half = 0.5 * (hi - lo)[:, None]
-        nodes = (0.5 * (hi + lo)[:, None] + half * x[None, :]) % 1.0
-        weights = (half * w[None, :]).ravel()
-        self.rays += weights.size
-        gl_x, gl_w = np.polynomial.legendre.leggauss(int(n_radial))
-        while True:
-            idx, val, counts = _rays(np.ascontiguousarray(nodes.ravel()), self.incident, self.kind, self.params,
-                                     self.facet_kind, self.facet_data, self.unit, self.max_bounces,
-                                     self.max_order, self.resolution, gl_x, gl_w, self.capacity, self.n_keys)
-            if counts.max(initial=0) <= self.capacity:
-                break
-            self.capacity = int(2 ** math.ceil(math.log2(counts.max())))
-        used = np.arange(self.capacity)[None, :] < counts[:, None]
-        ray = np.broadcast_to(np.arange(counts.size)[:, None], used.shape)[used]
-        piece = ray // int(n_azimuth)
-        code = piece.astype(np.int64) * self.n_keys + idx[used]
-        unique, inverse = np.unique(code, return_inverse=True)
-        sums = np.bincount(inverse, weights=val[used] * weights[ray], minlength=unique.size)
-        return unique // self.n_keys, unique % self.n_keys, sums
-
-
-def _sparse_sum(parts, n_keys):
-    """Sum of sparse ``(piece, key, value)`` parts, by ``(piece, key)``."""
-    piece = np.concatenate([p for p, _, _ in parts])
-    key = np.concatenate([k for _, k, _ in parts])
-    value = np.concatenate([v for _, _, v in parts])
-    code = piece * n_keys + key
-    unique, inverse = np.unique(code, return_inverse=True)
-    return unique // n_keys, unique % n_keys, np.bincount(inverse, weights=value, minlength=unique.size)
+def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_quads):
+    """Cell integrals ``[(order, cell) ..., truncated]`` on one ``n_quads x n_quads`` mesh."""
+    kind, params = distributions.params_from(material.distribution, material.distribution_params)
+    facet_kind, _, facet_data = facets.prepare(material.facet, material.facet_params)
+    n_quads = int(n_quads)
+    nodes = np.arange(n_quads + 1) / n_quads
+    value, bounces, image = _vertices(nodes, nodes, np.ascontiguousarray(incident, dtype=np.float64), kind,
+                                      params, facet_kind, facet_data, material.facet == "mirror",
+                                      int(max_bounces), int(resolution))
+    w_lo, w_hi = tau_weights(n_quads)
+    return _accumulate(value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order), int(max_bounces),
+                       int(resolution))
 
 
 def specular_orders(material, incident, sensor, max_order, max_bounces, *, tolerance=DEFAULT_TOLERANCE,
-                    n_azimuth=DEFAULT_AZIMUTH_NODES, n_radial=DEFAULT_RADIAL_NODES, refine=True):
+                    start_quads=START_QUADS, max_quads=MAX_QUADS):
     """Cell integrals of every bounce order of a specular V-cavity, with error estimates.
 
     Parameters
@@ -328,13 +355,11 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     max_bounces : int
         The walk's bounce cap: paths of more bounces are truncated, as in the walk.
     tolerance : float, keyword-only
-        L1 accuracy over all cells and orders (probability per path) of the azimuthal
-        rule; the radial rule's error is estimated, not refined.
-    n_azimuth, n_radial : int, keyword-only
-        Gauss-Legendre nodes per piece of ``u2`` and of ``τ``.
-    refine : bool, keyword-only
-        False: the starting pieces of ``u2`` only, each checked once against its halves
-        (a forced coarse rule whose estimate the tests hold against a fine one).
+        The mesh is doubled until its last doubling changed the cells of all orders by at
+        most ``tolerance`` times the exiting share, in L1 (``inf``: the first mesh only).
+    start_quads, max_quads : int, keyword-only
+        Quads per side of the first mesh, and of the finest one allowed: when that is
+        reached first, the estimate says how far from the tolerance it is.
 
     Returns
     -------
@@ -352,59 +377,19 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
     if not incident[2] > 0.0:
         raise ModelNotApplicable(f"incident direction at or below the horizon (z = {incident[2]:g})")
-    rule = _Rule(material, incident, sensor.resolution, max_order, max_bounces)
-    n_keys = rule.n_keys
-    lo = np.arange(START_PIECES) / START_PIECES
-    hi = lo + 1.0 / START_PIECES
-    whole = rule.pieces(lo, hi, n_azimuth, n_radial)
-    total, error, accepted = [], [], []
-    for depth in range(MAX_DEPTH + 1):
-        mid = 0.5 * (lo + hi)
-        p, k, v = rule.pieces(np.concatenate([lo, mid]), np.concatenate([mid, hi]), n_azimuth, n_radial)
-        refined = (p % lo.size, k, v)  # the two halves of piece j are pieces j and j + n
-        wp, wk, wv = whole
-        dp, dk, dv = _sparse_sum([refined, (wp, wk, -wv)], n_keys)
-        l1 = np.bincount(dp, weights=np.abs(dv), minlength=lo.size)
-        done = l1 <= tolerance * (hi - lo)
-        if not refine or depth == MAX_DEPTH or 2 * np.count_nonzero(~done) > MAX_PIECES:
-            done[:] = True
-        keep = done[refined[0]]
-        total.append((refined[1][keep], refined[2][keep]))
-        keep_d = done[dp]
-        error.append((dk[keep_d], np.abs(dv[keep_d])))
-        accepted.append((lo[done], hi[done]))
-        if np.all(done):
+    n = max(int(start_quads), 2)
+    coarse = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n // 2)
+    while True:
+        fine = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n)
+        change = np.abs(fine - coarse)
+        if change.sum() <= tolerance * fine[:-1].sum() or 2 * n > max_quads:
             break
-        # the halves of the pieces not done are the next round's pieces, their sums the wholes
-        todo = np.flatnonzero(~done)
-        renumber = np.full(lo.size, -1)
-        renumber[todo] = np.arange(todo.size)
-        half_of = np.where(p < lo.size, 0, 1)
-        parent = p % lo.size
-        sel = renumber[parent] >= 0
-        whole = (renumber[parent[sel]] + todo.size * half_of[sel], k[sel], v[sel])
-        lo, hi = np.concatenate([lo[todo], mid[todo]]), np.concatenate([mid[todo], hi[todo]])
-    integrals = _dense(total, n_keys)
-    err = _dense(error, n_keys)
-    if int(n_radial) >= 2:  # radial error: the accepted pieces with half the tau nodes
-        a = np.concatenate([x for x, _ in accepted])
-        b = np.concatenate([y for _, y in accepted])
-        m = 0.5 * (a + b)
-        _, k, v = rule.pieces(np.concatenate([a, m]), np.concatenate([m, b]), n_azimuth,
-                              max(int(n_radial) // 2, 1))
-        coarse = _dense([(k, v)], n_keys)
-        err = err + np.abs(coarse - integrals)
-    shape = (rule.max_order + 1, rule.n_cells)
-    return SpecularOrders(integrals=integrals[:-1].reshape(shape), error=err[:-1].reshape(shape),
-                          truncated=float(integrals[-1]), truncated_error=float(err[-1]),
-                          max_order=rule.max_order, max_bounces=rule.max_bounces)
+        coarse, n = fine, 2 * n
+    shape = (int(max_order) + 1, sensor.resolution ** 2)
+    return SpecularOrders(integrals=fine[:-1].reshape(shape), error=change[:-1].reshape(shape),
+                          truncated=float(fine[-1]), truncated_error=float(change[-1]),
+                          max_order=int(max_order), max_bounces=int(max_bounces), quads=n)
 
 
-def _dense(parts, n_keys):
-    out = np.zeros(n_keys)
-    for key, value in parts:
-        np.add.at(out, key, value)
-    return out
-
-
-__all__ = ["specular_orders", "SpecularOrders", "is_specular", "SPECULAR_FACETS", "DEFAULT_TOLERANCE"]
+__all__ = ["specular_orders", "mesh_integrals", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
+           "SPECULAR_FACETS", "DEFAULT_TOLERANCE"]
