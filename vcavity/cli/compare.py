@@ -45,6 +45,23 @@ def add_parser(subparsers) -> None:
                          "at most 1024: the cost grows as N^2 per cell)")
     compare.add_argument("--lambda-fit", action="store_true",
                          help="Smith models on beckmann: Walter's rational Lambda instead of the exact erf form")
+    compare.add_argument("--order", type=_order_arg, metavar="K",
+                         help="test bounce order K (1, 2, 3, ... or inf) of a specular table (mirror, conductor, "
+                         "kd = 0 dielectric) against the every-order model (deterministic, physics.md sec. 12-13): "
+                         "chi-square over cells and albedo z-test; other facets: 'not applicable', exit 2")
+
+
+def _order_arg(text: str) -> int:
+    """``--order``: a bounce order >= 1, or ``inf`` (0, f_inf)."""
+    if text.strip().lower() in ("inf", "f_inf", "0"):
+        return 0
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"{text!r}: accepted a bounce order 1, 2, 3, ... or inf")
+    return value
 
 
 def command(args: argparse.Namespace) -> int:
@@ -73,6 +90,8 @@ def command(args: argparse.Namespace) -> int:
     if 1 in table.order and table.is_analytic(1):
         return error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
                      "there is no simulated f1 to test; run with --estimator analog to validate the walk")
+    if args.order is not None:
+        return _compare_order(args, table)
     try:
         report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
                                lambda_fit=args.lambda_fit, plots_dir=args.plots)
@@ -81,4 +100,21 @@ def command(args: argparse.Namespace) -> int:
     print(format_report(report))
     if args.plots:
         print(f"plots written to {args.plots}")
+    return EXIT_OK if report.passed else EXIT_TEST_FAILED
+
+
+def _compare_order(args: argparse.Namespace, table) -> int:
+    """``--order K``: the every-order model of specular tables (other options do not apply)."""
+    from vcavity.analytic.single_bounce import ModelNotApplicable
+    from vcavity.compare import compare_order, format_order_report
+
+    for flag, given in (("--model", args.model != "vcavity"), ("--plots", args.plots is not None),
+                        ("--lambda-fit", args.lambda_fit), ("--nodes", args.nodes != 64)):
+        if given:
+            return error(f"{flag} does not apply with --order (the every-order model has no such choice)")
+    try:
+        report = compare_order(table, args.order, significance=args.significance)
+    except ModelNotApplicable as exc:
+        return error(first_line(exc))
+    print(format_order_report(report))
     return EXIT_OK if report.passed else EXIT_TEST_FAILED

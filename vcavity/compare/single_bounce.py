@@ -1,4 +1,4 @@
-"""Compare a simulated table with the analytic models (``vcavity compare``).
+"""Compare a simulated table with the analytic single-bounce models (``vcavity compare``).
 
 For each incident direction of a table:
 
@@ -46,6 +46,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import ConfigError, Material
+from vcavity.compare.text import angle, fixed, fmt
 from vcavity.io.schema import order_name
 from vcavity.sensor.directions import incident_vector
 
@@ -204,31 +205,6 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
     return report
 
 
-def _fmt(x: float) -> str:
-    """A figure in a readable width: 4 significant digits, scientific when large or tiny."""
-    x = float(x)
-    if not math.isfinite(x):
-        return str(x)
-    return f"{x:.4g}"
-
-
-def _fixed(x: float, decimals: int = 6) -> str:
-    """``decimals`` places for figures of moderate size (albedos), else :func:`_fmt`: never
-    wider than about a dozen characters."""
-    x = float(x)
-    if math.isfinite(x) and abs(x) < 1e3:
-        return f"{x:.{decimals}f}"
-    return _fmt(x)
-
-
-def _angle(radians: float) -> str:
-    """An angle in degrees, 7 characters wide up to 1e4 degrees (beyond, 4 significant digits)."""
-    degrees = math.degrees(float(radians))
-    if math.isfinite(degrees) and abs(degrees) < 1e4:
-        return f"{degrees:7.2f}"
-    return f"{_fmt(degrees):>7}"
-
-
 def _verdict(report: ComparisonReport) -> str:
     """``PASS``, ``FAIL`` or, when nothing failed but some chi-square had fewer than two
     categories, ``NOT TESTABLE`` (never a pass: :mod:`vcavity.analytic.statistics`)."""
@@ -256,19 +232,19 @@ def format_report(report: ComparisonReport) -> str:
     level = report.per_test_level
     for d in report.directions:
         c, a = d.chi_square, d.albedo_test
-        albedos = "  ".join(f"{order_name(k)} {_fixed(v)}" for k, v in sorted(d.table_albedo.items()))
+        albedos = "  ".join(f"{order_name(k)} {fixed(v)}" for k, v in sorted(d.table_albedo.items()))
         ratio = d.relative_l1 / d.noise_l1 if d.noise_l1 > 0 else float("inf")
         lines += [
-            f"theta_i {_angle(d.theta_i)} deg  phi_i {_angle(d.phi_i)} deg  paths {d.paths:,}",
+            f"theta_i {angle(d.theta_i)} deg  phi_i {angle(d.phi_i)} deg  paths {d.paths:,}",
             f"  table albedo: {albedos}",
-            f"  {'+'.join(order_name(k) for k in d.model_orders)}: table {_fixed(d.table_model_albedo)}  "
-            f"model {_fixed(d.model_albedo)}  ({report.model})",
-            f"  relative L1 {_fmt(d.relative_l1)}  (noise alone: {_fmt(d.noise_l1)}, ratio {_fmt(ratio)})",
-            f"  chi2 f1 vs vcavity: {_fmt(c.statistic)} / {c.dof} dof = {_fmt(c.statistic / c.dof)}  "
-            f"p = {_fmt(c.p_value)}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
-            f"largest cell deviation {_fmt(c.max_abs_z)} sigma in cell {c.max_z_cell})  -> {c.verdict(level)}",
-            f"  f1 albedo: table {_fixed(d.table_albedo.get(1, float('nan')))}  model {_fixed(d.vcavity_f1_albedo)}  "
-            f"z = {_fmt(a.z)}  p = {_fmt(a.p_value)}  -> {a.verdict(level)}",
+            f"  {'+'.join(order_name(k) for k in d.model_orders)}: table {fixed(d.table_model_albedo)}  "
+            f"model {fixed(d.model_albedo)}  ({report.model})",
+            f"  relative L1 {fmt(d.relative_l1)}  (noise alone: {fmt(d.noise_l1)}, ratio {fmt(ratio)})",
+            f"  chi2 f1 vs vcavity: {fmt(c.statistic)} / {c.dof} dof = {fmt(c.statistic / c.dof)}  "
+            f"p = {fmt(c.p_value)}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
+            f"largest cell deviation {fmt(c.max_abs_z)} sigma in cell {c.max_z_cell})  -> {c.verdict(level)}",
+            f"  f1 albedo: table {fixed(d.table_albedo.get(1, float('nan')))}  model {fixed(d.vcavity_f1_albedo)}  "
+            f"z = {fmt(a.z)}  p = {fmt(a.p_value)}  -> {a.verdict(level)}",
         ]
     lines.append(f"result: {_verdict(report)}")
     return "\n".join(lines)
@@ -298,8 +274,8 @@ def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, or
     for ax in axes:
         ax.set_xlabel("u (sensor square)")
         ax.set_ylabel("v")
-    fig.suptitle(f"{Path(str(table.path)).name}: theta_i {_fmt(theta)} deg, phi_i {_fmt(phi)} deg")
+    fig.suptitle(f"{Path(str(table.path)).name}: theta_i {fmt(theta)} deg, phi_i {fmt(phi)} deg")
     fig.tight_layout()
     # file names stay short for any stored angle (phi_i = 1e300 deg is a valid table)
-    fig.savefig(folder / f"compare_{model}_theta{_fmt(theta)}_phi{_fmt(phi)}.png".replace("+", ""), dpi=90)
+    fig.savefig(folder / f"compare_{model}_theta{fmt(theta)}_phi{fmt(phi)}.png".replace("+", ""), dpi=90)
     plt.close(fig)

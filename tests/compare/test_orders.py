@@ -1,0 +1,70 @@
+"""``vcavity compare --order K``: any bounce order of a specular table against the
+every-order model (vcavity/compare/orders.py): passes on tables simulated with the
+labelled material, fails on mislabelled ones, refuses what it cannot test in one line."""
+
+import h5py
+import pytest
+
+from tests.test_compare import write_run
+from vcavity.cli import main
+
+MIRROR = {"distribution": "beckmann", "alpha": 0.5, "facet": "mirror"}
+DIELECTRIC = {"distribution": "ggx", "alpha": 0.4, "facet": "interfaced_lambertian", "kd": 0.0, "eta": 1.5}
+
+
+@pytest.fixture(scope="module")
+def mirror_table(tmp_path_factory):
+    return write_run(tmp_path_factory.mktemp("orders") / "mirror.h5", MIRROR, paths=400_000, max_order=3)
+
+
+@pytest.mark.parametrize("order", ["1", "2", "inf"])
+def test_a_true_table_passes_every_order(mirror_table, capsys, order):
+    """False-alarm rate 1 % per order (family level, Sidak over 2 directions x 2 tests)."""
+    assert main(["compare", str(mirror_table), "--order", order]) == 0
+    out = capsys.readouterr().out
+    name = "f_inf" if order == "inf" else f"f{order}"
+    assert out.count(f"chi2 {name} vs model") == 2 and "result: PASS" in out and "model error estimate" in out
+
+
+def test_a_mislabelled_roughness_fails_f2(mirror_table, tmp_path, capsys):
+    """Simulated at alpha 0.5, labelled 0.4: f2 is off by tens of standard errors."""
+    path = tmp_path / "t.h5"
+    path.write_bytes(mirror_table.read_bytes())
+    with h5py.File(path, "r+") as h5:
+        h5["material"].attrs["alpha_x"] = h5["material"].attrs["alpha_y"] = 0.4
+    assert main(["compare", str(path), "--order", "2"]) == 1
+    assert "result: FAIL" in capsys.readouterr().out
+
+
+def test_a_mislabelled_index_fails_f_inf(tmp_path, capsys):
+    """A kd = 0 dielectric simulated at eta 1.5, labelled 2.5: f_inf (its albedo ~0.05 here
+    rises to ~0.2 at 2.5) is off by hundreds of standard errors."""
+    path = write_run(tmp_path / "d.h5", DIELECTRIC, paths=100_000, max_order=2)
+    with h5py.File(path, "r+") as h5:
+        h5["material"].attrs["eta"] = 2.5
+    assert main(["compare", str(path), "--order", "inf"]) == 1
+    assert "result: FAIL" in capsys.readouterr().out
+
+
+def test_other_facets_are_not_applicable_in_one_line(tmp_path, capsys):
+    path = write_run(tmp_path / "il.h5", {"distribution": "beckmann", "alpha": 0.5, "kd": 0.5, "eta": 1.5},
+                     paths=8192, max_order=2)
+    assert main(["compare", str(path), "--order", "2"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and "not applicable" in captured.err and captured.err.count("\n") == 1
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["--order", "0.5"], "accepted a bounce order"),
+    (["--order", "-2"], "accepted a bounce order"),
+    (["--order", "7"], "order 7 is not in table"),
+    (["--order", "2", "--model", "smith"], "--model does not apply with --order"),
+])
+def test_bad_order_requests_exit_2_in_one_line(mirror_table, capsys, argv, words):
+    try:
+        status = main(["compare", str(mirror_table), *argv])
+    except SystemExit as exc:  # argparse's own refusal of a flag value: exit status 2 too
+        status = exc.code
+    assert status == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("vcavity: error:") and "\n" not in err and words in err, err
