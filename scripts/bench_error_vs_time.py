@@ -15,8 +15,15 @@ log-log slope of error against paths (about -1/2 for an unbiased estimator) and 
 estimator's efficiency 1 / (error^2 x time) relative to analog unfolded, at the largest
 budget. Finally it times an exact-f1 folded run with a target error chosen for 0.2 % L1.
 
+``--specular``: for specular facets (a Beckmann 0.3 mirror, a GGX 0.6 x 0.2 gold conductor)
+whole tables at theta_i = 0, 30, 60, 85 deg: the exact estimator at several tolerances and
+the analog walk at several budgets, each against an exact table of tolerance 3e-5; the
+relative L1 error of f_inf against wall time, and the analog time the same error would
+take (from its last point, error ~ time^-1/2).
+
     python scripts/bench_error_vs_time.py --plot error_vs_time.png       # ~10 min, 2 cores
     python scripts/bench_error_vs_time.py --quick
+    python scripts/bench_error_vs_time.py --specular                     # ~3 min
 """
 
 from __future__ import annotations
@@ -72,7 +79,13 @@ def main(argv=None) -> int:
     parser.add_argument("--quick", action="store_true", help="small budgets (a smoke run)")
     parser.add_argument("--plot", metavar="PNG")
     parser.add_argument("--repeat", type=int, default=2, help="runs per point; the shortest time counts (default 2)")
+    parser.add_argument("--specular", action="store_true",
+                        help="only the specular section: exact against analog on whole tables of a mirror and a "
+                        "conductor (theta_i 0, 30, 60, 85 deg)")
     args = parser.parse_args(argv)
+    if args.specular:
+        specular(args)
+        return 0
     ladder = [10**5, 4 * 10**5, 16 * 10**5] if args.quick else [10**6, 4 * 10**6, 16 * 10**6, 64 * 10**6]
     reference_paths = 4 * 10**6 if args.quick else 10**9
     print(f"vcavity bench_error_vs_time, theta_i = {THETA_DEG:g} deg, N = 57, {time.strftime('%Y-%m-%d')}")
@@ -146,6 +159,79 @@ def _plot(curves, path):
             axes[row, column].legend(fontsize=8)
     fig.suptitle("vcavity: error of f_inf against paths and wall time, theta_i = 60 deg, 2 threads")
     fig.savefig(path, dpi=110)
+
+
+# --- specular facets: the exact estimator (every order from the deterministic model) -------------
+
+SPECULAR = {
+    "mirror, beckmann 0.3": {"distribution": "beckmann", "alpha": 0.3, "facet": "mirror"},
+    "conductor (gold 550 nm), ggx 0.6 x 0.2": {"distribution": "ggx", "alpha_x": 0.6, "alpha_y": 0.2,
+                                               "facet": "conductor"},
+}
+SPECULAR_THETA_DEG = (0.0, 30.0, 60.0, 85.0)
+
+
+def _specular_config(material, estimator, paths=10**6, tolerance=None, seed=7, phi_deg=0.0):
+    simulation = {"seed": seed, "max_order": 3, "estimator": estimator}
+    if tolerance is not None:
+        simulation["target_error"] = tolerance
+    return config_mod.validate({"material": material,
+                                "incidence": {"theta_i_deg": list(SPECULAR_THETA_DEG), "phi_i_deg": phi_deg,
+                                              "paths": paths},
+                                "simulation": simulation})
+
+
+def _timed(cfg):
+    sim = Simulation(cfg)
+    sim.compile()
+    start = time.perf_counter()
+    result = sim.run()
+    return result, time.perf_counter() - start
+
+
+def _table_l1(result, reference, area):
+    """Energy-weighted relative L1 of f_inf over the whole table (all directions)."""
+    return float(np.sum(np.abs(result.brdf[:, 0] - reference.brdf[:, 0]) * area)
+                 / np.sum(reference.brdf[:, 0] * area))
+
+
+def specular(args) -> dict:
+    """Error of f_inf against time for whole tables (theta_i 0, 30, 60, 85 deg), exact vs analog."""
+    from vcavity.facet import registry as facets
+
+    tolerances = (1e-2, 3e-3) if args.quick else (1e-2, 3e-3, 1e-3, 3e-4)
+    ladder = [10**5, 4 * 10**5] if args.quick else [10**6, 4 * 10**6, 16 * 10**6]
+    curves = {}
+    for name, material in SPECULAR.items():
+        if material["facet"] not in facets.NAMES:
+            print(f"\n{name}: facet {material['facet']!r} not in this tree, skipped")
+            continue
+        phi = 0.0
+        reference, ref_time = _timed(_specular_config(material, "exact", tolerance=1e-3 if args.quick else 3e-5))
+        area = np.asarray(reference.sensor.cell_projected_solid_angle)
+        print(f"\n{name}, theta_i {', '.join(f'{t:g}' for t in SPECULAR_THETA_DEG)} deg: reference exact table "
+              f"in {ref_time:.1f} s, its relative error estimate {np.nanmax(reference.relative_error):.1e}")
+        print(f"{'estimator':>10} {'setting':>12} {'time s':>8} {'L1 f_inf':>9} {'estimate':>9}")
+        rows_exact, rows_analog = [], []
+        for tol in tolerances:
+            result, seconds = _timed(_specular_config(material, "exact", tolerance=tol))
+            l1 = _table_l1(result, reference, area)
+            rows_exact.append((tol, seconds, l1))
+            print(f"{'exact':>10} {f'tol {tol:.0e}':>12} {seconds:8.2f} {l1:9.2e} "
+                  f"{np.nanmax(result.relative_error):9.2e}")
+        for paths in ladder:
+            result, seconds = _timed(_specular_config(material, "analog", paths=paths, phi_deg=phi))
+            l1 = _table_l1(result, reference, area)
+            rows_analog.append((paths, seconds, l1))
+            print(f"{'analog':>10} {f'{paths:.1e} paths':>12} {seconds:8.2f} {l1:9.2e}")
+        # analog time for an error E, from its last point (error ~ time^-1/2)
+        _, t_last, e_last = rows_analog[-1]
+        for tol, seconds, l1 in rows_exact:
+            analog_time = t_last * (e_last / l1) ** 2
+            print(f"   exact at tol {tol:.0e}: L1 {l1:.2e} in {seconds:.2f} s; analog would need ~{analog_time:.3g} s: "
+                  f"{analog_time / seconds:.3g}x the efficiency")
+        curves[name] = (np.array(rows_exact), np.array(rows_analog))
+    return curves
 
 
 if __name__ == "__main__":

@@ -197,7 +197,8 @@ def folded_estimate(result):
 # --- configuration ------------------------------------------------------------------------
 
 @pytest.mark.parametrize("simulation, incidence, field, words", [
-    ({"estimator": "exact"}, {}, "simulation.estimator", "accepted: 'analog', 'exact-f1'"),
+    ({"estimator": "exactly"}, {}, "simulation.estimator", "accepted: 'analog', 'exact-f1', 'paper', 'exact'"),
+    ({"estimator": "exact"}, {}, "simulation.estimator", "is for specular facets only"),
     ({"estimator": "exact-f1", "max_order": 1, "track_all_orders": False}, {}, "simulation.estimator",
      "nothing is simulated"),
     ({"fold_symmetry": "yes"}, {}, "simulation.fold_symmetry", "true or false"),

@@ -27,9 +27,11 @@ A run config has four tables::
     max_bounces = 10000            # bounce cap; capped paths are reported as truncated
     track_all_orders = true        # f_inf (order 0); false stops every path after K bounces
     sensor_resolution = 57         # N: N x N equal-solid-angle cells (57 -> 3249)
-    estimator = "analog"           # or "exact-f1": f1 from the exact V-cavity model
+    estimator = "analog"           # or "exact-f1": f1 from the exact V-cavity model; "paper";
+                                   # "exact" (specular facets): every order from the model, no path
     fold_symmetry = true           # default: fold wherever the mirror symmetry is exact
     target_error = 0.002           # optional: run each direction until this error ...
+                                   # (exact: the model's tolerance, default 1e-3)
     max_paths = 1_000_000_000      # ... or this many paths (default: incidence.paths)
 
     [output]
@@ -45,7 +47,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcavity.estimators import ESTIMATORS, EXACT_F1, has_mirror_symmetry
+from vcavity.estimators import ESTIMATORS, EXACT, EXACT_F1, has_mirror_symmetry
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import ParameterError
@@ -393,6 +395,11 @@ def _validate_estimation(sim: dict, material: Material, incidence, track: bool, 
     estimator = sim.get("estimator", "analog")
     if estimator not in ESTIMATORS:
         _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in ESTIMATORS)}")
+    if estimator == EXACT and not facets.is_specular(material.facet, material.facet_params):
+        _fail("simulation.estimator", estimator, "is for specular facets only (mirror, conductor, "
+              "interfaced_lambertian with kd = 0 and eta > 1), whose every order has a deterministic model; "
+              f"this material is {material.facet} with {dict(material.facet_params)}: use 'analog', "
+              "'exact-f1' or 'paper'")
     if estimator == EXACT_F1 and not track and max_order == 1:
         _fail("simulation.estimator", estimator, "with max_order = 1 and track_all_orders = false "
               "every order is analytic and nothing is simulated: use 'analog' or raise max_order")
@@ -421,6 +428,9 @@ def _validate_estimation(sim: dict, material: Material, incidence, track: bool, 
     max_paths = sim.get("max_paths")
     if max_paths is not None:
         max_paths = _integer("simulation.max_paths", _whole(max_paths), 1, MAX_PATHS)
+        if estimator == EXACT:
+            _fail("simulation.max_paths", sim["max_paths"], "does not apply to the exact estimator "
+                  "(it traces no path; simulation.target_error is its model's tolerance)")
         if target_error is None:
             _fail("simulation.max_paths", sim["max_paths"], "applies only with simulation.target_error "
                   "(otherwise incidence.paths is the number of paths)")

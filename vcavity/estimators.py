@@ -10,6 +10,9 @@ integer counts per incident direction, order and sensor cell; this module turns 
   start on a facet and carry a weight ``w``, summed as integers ``q = w Q`` (stochastic
   rounding); ``brdf[c] = Σ q / (Q N Ω⊥_c)`` with the standard error of a mean of
   ``N`` per-path contributions, ``sqrt(Σ q^2 - (Σ q)^2 / N) / (Q N Ω⊥_c)``;
+- ``exact``: no path at all, for specular facets only: every order is the cell average of
+  the every-order model (physics.md sec. 12-13) and ``brdf_stderr`` its error estimate
+  (:mod:`vcavity.simulate.exact`);
 - ``exact-f1``: the first order is the exact cell-averaged V-cavity single-bounce model
   (its integrals ``I_c = ∫_c f1 cos θ_o dω_o`` and their quadrature error ``e_c`` come from
   :mod:`vcavity.analytic`), the walk bins only orders >= 2, and
@@ -37,8 +40,9 @@ from vcavity.sensor.grid import EqualAreaSensor
 ANALOG = "analog"
 EXACT_F1 = "exact-f1"
 PAPER = "paper"
+EXACT = "exact"
 #: Estimators ``[simulation] estimator`` accepts.
-ESTIMATORS = (ANALOG, EXACT_F1, PAPER)
+ESTIMATORS = (ANALOG, EXACT_F1, PAPER, EXACT)
 
 #: ``order_source`` flags (CF flag_values / flag_meanings of the table).
 SIMULATED = 0
@@ -226,11 +230,13 @@ def relative_error(estimate: DirectionEstimate, orders, projected_solid_angle) -
 def order_source(orders, estimator: str) -> np.ndarray:
     """Per-order flag: ``SIMULATED``, ``ANALYTIC`` or ``ANALYTIC_PLUS_SIMULATED`` (int8)."""
     flags = np.full(len(orders), SIMULATED, dtype=np.int8)
-    if estimator == EXACT_F1:
+    if estimator == EXACT:
+        flags[:] = ANALYTIC
+    elif estimator == EXACT_F1:
         for position, k in enumerate(orders):
             flags[position] = ANALYTIC if k == 1 else ANALYTIC_PLUS_SIMULATED if k == 0 else SIMULATED
     return flags
 
 
-__all__ = ["ANALOG", "EXACT_F1", "ESTIMATORS", "PAPER", "DirectionEstimate", "estimate_direction", "estimate_weighted",
+__all__ = ["ANALOG", "EXACT", "EXACT_F1", "ESTIMATORS", "PAPER", "DirectionEstimate", "estimate_direction", "estimate_weighted",
            "has_mirror_symmetry", "mirror_cells", "order_source", "relative_error"]

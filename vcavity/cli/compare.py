@@ -87,11 +87,11 @@ def command(args: argparse.Namespace) -> int:
     table = open_table_or_error(args.table)
     if table is None:
         return EXIT_BAD_INPUT
+    if args.order is not None:
+        return _compare_order(args, table)
     if 1 in table.order and table.is_analytic(1):
         return error(f"table {args.table!r}: f1 is analytic in this table (estimator {table.estimator}), "
                      "there is no simulated f1 to test; run with --estimator analog to validate the walk")
-    if args.order is not None:
-        return _compare_order(args, table)
     try:
         report = compare_table(table, model=args.model, significance=args.significance, n_nodes=args.nodes,
                                lambda_fit=args.lambda_fit, plots_dir=args.plots)

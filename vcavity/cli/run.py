@@ -64,13 +64,16 @@ def add_parser(subparsers) -> None:
     run.add_argument("--seed", type=seed_arg, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
     run.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                      help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
-    run.add_argument("--estimator", choices=("analog", "exact-f1", "paper"),
+    run.add_argument("--estimator", choices=("analog", "exact-f1", "paper", "exact"),
                      help="analog: every order simulated (default); exact-f1: f1 from the exact V-cavity "
                      "single-bounce model, orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
-                     "on a facet, weighted by its lit projected area) (overrides [simulation] estimator)")
+                     "on a facet, weighted by its lit projected area); exact: specular facets only (mirror, "
+                     "conductor, kd = 0 dielectric): every order from the deterministic model, no path traced, "
+                     "brdf_stderr = the model's error estimate (overrides [simulation] estimator)")
     run.add_argument("--target-error", type=fraction_arg, metavar="E",
                      help="run each direction until the energy-weighted mean relative standard error of "
-                     "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths")
+                     "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths; with --estimator "
+                     "exact: the model's tolerance (relative L1 error of all orders, default 0.001)")
     run.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
                      help="with --target-error: the most paths per direction (default: the config's paths)")
     run.add_argument("--resume", action="store_true",
@@ -266,8 +269,9 @@ def prepare(args: argparse.Namespace, cfg, out):
     from vcavity.simulate.pipeline import Simulation
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
-    print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), "
-          f"{sim.total_paths:,} paths, {sim.threads} thread(s)", file=sys.stderr)
+    work = "no path (exact estimator)" if sim.exact else f"{sim.total_paths:,} paths"
+    print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {sim.threads} thread(s)",
+          file=sys.stderr)
     try:
         state = driver.load_state(sim, out, args.resume or False)
     except checkpoint.CheckpointError as exc:
@@ -276,14 +280,18 @@ def prepare(args: argparse.Namespace, cfg, out):
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
     compile_s = sim.compile()
     raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
-    print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
-          file=sys.stderr)
+    if sim.kernel is not None:
+        print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",
+              file=sys.stderr)
     try:
         model_s = sim.prepare_models()
     except ModelNotApplicable as exc:
-        raise BadInput(f"--estimator = exact-f1: {first_line(exc)}") from None
+        raise BadInput(f"--estimator = {cfg.estimator}: {first_line(exc)}") from None
     if cfg.estimator == "exact-f1":
         print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
+    if cfg.estimator == "exact":
+        print(f"vcavity: every-order model of {len(cfg.incidence)} direction(s) in {model_s:.2f} s "
+              "(deterministic: no path traced)", file=sys.stderr)
     return sim, state
 
 
@@ -318,6 +326,8 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
     from vcavity.io.writer import write_result
     from vcavity.simulate import driver
 
+    if args.dask and cfg.estimator == "exact":
+        raise BadInput(f"--dask = {args.dask!r}: the exact estimator traces no path, there is nothing to distribute")
     executor = _executor(args.dask) if args.dask else None
     out = output.path
     cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
@@ -363,13 +373,16 @@ def report(written: Written) -> None:
     cfg, result = written.config, written.result
     traced = int(result.paths.sum())
     rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
-    if cfg.target_error is not None:
+    if cfg.target_error is not None and result.target_reached is not None:  # exact: the model's tolerance
         for d, paths, rel_error, reached in zip(cfg.incidence, result.paths, result.relative_error,
                                                 result.target_reached):
             state = "reached" if reached else "NOT reached: path cap hit"
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
                   f"(error {rel_error:.3g} after {int(paths):,} paths)")
     print(f"wrote {written.path}")
-    print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
-          f"kernel compile/load {result.compile_time_s:.2f} s")
+    if result.estimator == "exact":
+        print(f"model time {result.model_time_s:.2f} s (deterministic table: no path traced)")
+    else:
+        print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
+              f"kernel compile/load {result.compile_time_s:.2f} s")
     print(format_summary(open_table(written.path)))

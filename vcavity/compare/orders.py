@@ -137,14 +137,14 @@ def compare_order(table, order: int, significance: float = 0.01, tolerance: floa
         incident = incident_vector(float(theta), float(phi))
         paths = int(table.paths[j])
         observed = table.counts[j, table.order_index(order)].astype(np.float64)
-        model = specular_orders(material, incident, table.sensor, max_order, max_bounces,
+        rows = [order - 1] if order >= 1 else list(range(max_order + (1 if track_all else 0)))
+        model = specular_orders(material, incident, table.sensor, max_order, max_bounces, rows=rows,
                                 tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance)
         p, err = _expected(model, order, track_all)
         noise = float(binomial_mean_abs_deviation(paths, p).sum() / max(paths * p.sum(), 1e-300))
         if tolerance is None and err.sum() > MODEL_TO_NOISE * noise * p.sum():
-            # the doubling measure is relative to what exits: ask for the noise's tenth of this order
-            wanted = MODEL_TO_NOISE * noise * p.sum() / max(model.exited, 1e-300)
-            model = specular_orders(material, incident, table.sensor, max_order, max_bounces, tolerance=wanted)
+            model = specular_orders(material, incident, table.sensor, max_order, max_bounces, rows=rows,
+                                    tolerance=MODEL_TO_NOISE * noise)
             p, err = _expected(model, order, track_all)
         albedo = float(p.sum())
         scale = min(1.0, (1.0 - ALBEDO_GAP) / albedo) if albedo > 0.0 else 1.0

@@ -73,6 +73,14 @@ def has_specular(name: str, values: Mapping[str, float]) -> bool:
     return bool(get(name).has_specular(values))
 
 
+def is_specular(name: str, values: Mapping[str, float]) -> bool:
+    """True when every hit of the facet reflects specularly or absorbs (no body re-emits,
+    no hit is random but for survival): mirror, conductor, interfaced Lambertian with
+    ``kd = 0`` and ``eta > 1``. Their V-cavities have every order in closed form
+    (physics.md sec. 12)."""
+    return has_specular(name, values) and body_factor(name, values) == 0.0
+
+
 def body_factor(name: str, values: Mapping[str, float]) -> float:
     """The constant ``K`` of the facet's body term ``K T(c_i) T(c_o)`` (0: no body)."""
     return float(get(name).body_factor(values))
@@ -83,5 +91,5 @@ reflectance = REGISTRY.dispatcher("reflectance", ("cos_theta", "data"))
 transmittance = REGISTRY.dispatcher("transmittance", ("cos_theta", "data"))
 
 __all__ = ["FACET_MODULES", "REGISTRY", "MODULES", "NAMES", "get", "kind_of", "parse", "config_keys", "value_keys",
-           "prepare", "variant_name", "has_specular", "body_factor", "help_lines", "event", "reflectance",
+           "prepare", "variant_name", "has_specular", "is_specular", "body_factor", "help_lines", "event", "reflectance",
            "transmittance"]

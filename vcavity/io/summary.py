@@ -41,6 +41,9 @@ def _estimator_line(table) -> str:
     """How the table was estimated: estimator, analytic orders, fold, target."""
     estimator = table.estimator
     text = f"estimator {estimator}"
+    if table.deterministic:
+        return (text + " (deterministic: every order from the every-order model of specular V-cavities, "
+                "no path traced; brdf_stderr and rel. error are the model's error estimates)")
     if table.order_source is not None and np.any(table.order_source == 1):
         text += " (f1 is analytic: the exact V-cavity single-bounce model; orders >= 2 simulated)"
     folded = table.folded if table.folded is not None else np.zeros(len(table.theta_i))
@@ -70,7 +73,9 @@ def format_summary(table, verbose: bool = False) -> str:
             lines.append(f"bounce cap {sim.get('max_bounces')}, f_inf tracked: {sim.get('track_all_orders')}, "
                          f"config from {cfg.get('source', '?')}")
         t_run = _number(table.attrs.get("compute_time_s"))
-        if t_run and t_run > 0:
+        if t_run and t_run > 0 and table.deterministic:
+            lines.append(f"model time {t_run:.2f} s")
+        elif t_run and t_run > 0:
             total = int(np.sum(table.paths))
             t_compile = _number(table.attrs.get("compile_time_s")) or 0.0
             lines.append(f"run time {t_run:.2f} s ({total / t_run / 1e6:.2f} M paths/s), "

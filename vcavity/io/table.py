@@ -124,8 +124,14 @@ class Table:
 
     @property
     def estimator(self) -> str:
-        """``analog`` or ``exact-f1`` (tables before format 3: ``analog``)."""
+        """``analog``, ``exact-f1``, ``paper`` or ``exact`` (tables before format 3: ``analog``)."""
         return str(self.attrs.get("estimator", "analog"))
+
+    @property
+    def deterministic(self) -> bool:
+        """True for a model's table (estimator ``exact``): no paths, ``brdf_stderr`` is the
+        model's error estimate, every order analytic."""
+        return bool(self.attrs.get("deterministic", 0))
 
     def is_analytic(self, k: int) -> bool:
         """Whether order ``k`` of this table comes (at least partly) from the analytic model."""
@@ -245,7 +251,7 @@ def _read(h5: h5py.File, location: Path) -> Table:
         if array.shape != expected:
             raise TableFormatError(f"dataset '{name}' has shape {array.shape}, expected "
                                    f"{expected} in {location}")
-    _check_values(data, location)
+    _check_values(data, location, deterministic=bool(_python_value(root.get("deterministic", 0))))
     seed = _int_attribute(root, "seed", location, 0, 2**64 - 1)
     try:
         config = json.loads(_python_value(root["config"]))
@@ -300,13 +306,16 @@ def _int_attribute(root, name: str, location: Path, lo: int, hi: int | None = No
     return value
 
 
-def _check_values(data: dict, location: Path) -> None:
-    """Refuse values no run writes (writer.py checks the same before writing)."""
+def _check_values(data: dict, location: Path, deterministic: bool = False) -> None:
+    """Refuse values no run writes (writer.py checks the same before writing); a
+    deterministic table (the model's, estimator ``exact``) has 0 paths."""
     def fail(name, index, value, accepted):
         raise TableFormatError(f"dataset '{name}' = {value!r} at index {index} in {location}: {accepted}")
 
     for name, ok, accepted in (
-            ("paths", lambda a: a >= 1, "must be >= 1 (every direction traced paths)"),
+            ("paths", (lambda a: a == 0) if deterministic else (lambda a: a >= 1),
+             "must be 0 (a deterministic table traced none)" if deterministic
+             else "must be >= 1 (every direction traced paths)"),
             ("counts", lambda a: a >= 0, "must be >= 0"),
             ("theta_i", lambda a: (a >= 0.0) & (a <= 0.5 * np.pi), "must be in [0, pi/2] rad"),
             ("phi_i", np.isfinite, "must be finite"),

@@ -83,7 +83,7 @@ def _degrees(name: str, given, radians: np.ndarray) -> np.ndarray:
 
 
 def _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_seen, sensor,
-               material, unbinned):
+               material, unbinned, deterministic=False):
     """Check shapes and bookkeeping of write_table's inputs; returns per-order exits."""
     n_i = theta_i.shape[0] if theta_i.ndim == 1 else 0
     if n_i < 1:
@@ -102,6 +102,10 @@ def _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_see
     if counts.shape != expected_shape:
         raise ValueError(f"counts must have shape (incidence, order, cell) = {expected_shape}, "
                          f"got {counts.shape}")
+    if deterministic:  # a model's table: no path was traced, nothing counted
+        if np.any(paths != 0) or np.any(counts != 0):
+            raise ValueError("a deterministic table has no paths and no counts (all 0)")
+        return counts.sum(axis=2)
     if np.any(paths <= 0):
         raise ValueError("paths must be positive for every incident direction")
     # Bookkeeping (physics.md sec. 6): exits + absorbed + truncated + degenerate = paths
@@ -162,7 +166,7 @@ def _write_material(h5, material: dict) -> None:
 
 
 def _root_attributes(sensor, config: dict, seed, block_size, max_bounces, compute_time_s, compile_time_s,
-                     run_attrs) -> dict:
+                     run_attrs, deterministic=False) -> dict:
     """The root attributes of a table: format, conventions, sensor, run metadata (docs/hdf5-format.md)."""
     config_json = json.dumps(config, sort_keys=True, default=_json_fallback)
     root_attrs = {
@@ -176,6 +180,7 @@ def _root_attributes(sensor, config: dict, seed, block_size, max_bounces, comput
         "max_bounces": _int_attr("max_bounces", max_bounces), "config": config_json,
         "compute_time_s": float(compute_time_s), "compile_time_s": float(compile_time_s),
         "estimator": "analog", "target_error": float("nan"),
+        "deterministic": np.int64(1 if deterministic else 0),
     }
     for key, value in (run_attrs or {}).items():
         root_attrs[key] = value if isinstance(value, str) else float(value)
@@ -222,7 +227,8 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
                 material: dict, config: dict, seed: int, block_size: int,
                 max_bounces: int, compute_time_s: float = 0.0,
                 compile_time_s: float = 0.0, theta_i_deg=None, phi_i_deg=None,
-                unbinned_paths=None, tabulated=None, run_attrs=None, cancelled=None) -> None:
+                unbinned_paths=None, tabulated=None, run_attrs=None, cancelled=None,
+                deterministic=False) -> None:
     """Write a BRDF table (format v3) atomically.
 
     Derived datasets come from the integer counts (physics.md sec. 6):
@@ -267,6 +273,10 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
         (n_i,). Default: the analog estimator of the counts, unfolded.
     run_attrs : dict, optional
         Further root attributes (``estimator``, ``target_error``, ...; str or float).
+    deterministic : bool, optional
+        A model's table (the ``exact`` estimator): ``paths`` and ``counts`` are all 0 and
+        ``tabulated`` holds every value (including the lost fractions); the root attribute
+        ``deterministic`` is 1.
     cancelled : callable, optional
         ``cancelled() -> bool``, asked once the temporary file is complete and synced,
         just before the rename: True (Ctrl-C was pressed meanwhile) removes the
@@ -296,13 +306,18 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
     unbinned = _as_int64("unbinned_paths", np.zeros_like(paths) if unbinned_paths is None
                          else unbinned_paths, 1)
     exits = _validated(theta_i, phi_i, order, counts, paths, lost_paths, max_bounces_seen,
-                       sensor, material, unbinned)
+                       sensor, material, unbinned, deterministic)
+    if deterministic and (tabulated is None or not {"brdf", "brdf_stderr", "albedo", "absorbed", "truncated",
+                                                    "degenerate", "relative_error"} <= tabulated.keys()):
+        raise ValueError("a deterministic table needs every tabulated value (brdf, brdf_stderr, albedo, "
+                         "the lost fractions and relative_error)")
     theta_i_deg = _degrees("theta_i_deg", theta_i_deg, theta_i)
     phi_i_deg = _degrees("phi_i_deg", phi_i_deg, phi_i)
     root_attrs = _root_attributes(sensor, config, seed, block_size, max_bounces, compute_time_s,
-                                  compile_time_s, run_attrs)
-    values = _analog_values(theta_i, phi_i, theta_i_deg, phi_i_deg, order, counts, paths, exits, lost_paths,
-                            max_bounces_seen, unbinned, sensor)
+                                  compile_time_s, run_attrs, deterministic)
+    with np.errstate(divide="ignore", invalid="ignore"):  # deterministic: NaN, replaced below
+        values = _analog_values(theta_i, phi_i, theta_i_deg, phi_i_deg, order, counts, paths, exits, lost_paths,
+                                max_bounces_seen, unbinned, sensor)
 
     if tabulated is not None:
         values.update(_tabulated(tabulated, values))
@@ -353,7 +368,7 @@ def write_result(path, result, config, cancelled=None) -> None:
         sensor=result.sensor, material=config.material.to_dict(), config=config.to_dict(),
         seed=config.seed, block_size=result.block_size, max_bounces=config.effective_max_bounces,
         compute_time_s=result.compute_time_s, compile_time_s=result.compile_time_s,
-        tabulated=tabulated, run_attrs=run_attrs, cancelled=cancelled)
+        tabulated=tabulated, run_attrs=run_attrs, cancelled=cancelled, deterministic=result.estimator == "exact")
 
 
 def _analog_relative_error(counts, paths, order) -> np.ndarray:

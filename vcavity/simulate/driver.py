@@ -70,7 +70,7 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
     bar = None
     with DeferredInterrupt() as interrupt:
         on_progress = None
-        if not quiet:
+        if not quiet and simulation.total_paths > 0:  # the exact estimator traces nothing
             from tqdm import tqdm
 
             done = int(simulation.paths_done(state).sum()) if state is not None else 0

@@ -18,8 +18,9 @@ import numpy as np
 
 from vcavity.io.checkpoint import RunState
 from vcavity.config import Material, RunConfig
-from vcavity.estimators import (ANALOG, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
+from vcavity.estimators import (ANALOG, EXACT, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
                                 order_source, relative_error)
+from vcavity.simulate.exact import ExactModels
 from vcavity.simulate.f1_models import F1Models
 from vcavity.facet import registry as facets
 from vcavity.kernels import paper
@@ -136,8 +137,11 @@ class Simulation:
         self.scene = Scene.of(config.material)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
         self.weighted = config.estimator == PAPER
+        self.exact = ExactModels(config, self.sensor, incident_vector) if config.estimator == EXACT else None
         build = paper.get_paper_kernel if self.weighted else get_kernel
-        self.kernel = build(self.scene.dist_kind, self.scene.facet_kind, self.scene.facet_variant)
+        # the exact estimator traces nothing: no kernel is built or compiled
+        self.kernel = None if self.exact else build(self.scene.dist_kind, self.scene.facet_kind,
+                                                    self.scene.facet_variant)
         self.first_binned_order = 2 if config.estimator == EXACT_F1 else 1
         self.compile_time_s = 0.0
         self.f1_models = F1Models(config, self.sensor, incident_vector)  # exact-f1 only
@@ -145,7 +149,9 @@ class Simulation:
 
     @property
     def total_paths(self) -> int:
-        """Paths planned: every direction's budget (with a target error, its cap)."""
+        """Paths planned: every direction's budget (with a target error, its cap; exact: 0)."""
+        if self.exact:
+            return 0
         return sum(self.config.path_budget(d) for d in self.config.incidence)
 
     def _call(self, incident, key, first_block, n_blocks, n_paths):
@@ -158,6 +164,8 @@ class Simulation:
 
     def compile(self) -> float:
         """Compile (or load from cache) the kernel; return the seconds it took."""
+        if self.exact:
+            return 0.0
         t0 = time.perf_counter()
         numba.set_num_threads(self.threads)
         self._call(incident_vector(0.0, 0.0), np.uint64(0), 0, 0, 0)
@@ -173,14 +181,17 @@ class Simulation:
         vcavity.analytic.single_bounce.ModelNotApplicable
             The model cannot reach the accuracy the run needs (one line).
         """
+        if self.exact:
+            numba.set_num_threads(self.threads)
+            return self.exact.prepare()
         if self.config.estimator != EXACT_F1:
             return 0.0
         return self.f1_models.prepare()
 
     @property
     def model_time_s(self) -> float:
-        """Seconds spent on the exact-f1 model (0 for the other estimators)."""
-        return self.f1_models.time_s
+        """Seconds spent on the exact-f1 or exact model (0 for the other estimators)."""
+        return self.exact.time_s if self.exact else self.f1_models.time_s
 
     def _seen(self, state: RunState):
         """Per direction, the simulated cell counts of orders >= 2 (every slot)."""
@@ -267,6 +278,12 @@ class Simulation:
             execute them here, one after the other.
         """
         run_units = executor if executor is not None else _execute_here
+        if self.exact:  # nothing to trace: the models are the table
+            self.prepare_models()
+            state = state if state is not None else self.new_state()
+            state.finished[:] = True
+            self.last_state = state
+            return self._exact_result()
         if self.compile_time_s == 0.0:
             self.compile()
         self.prepare_models()
@@ -383,6 +400,22 @@ class Simulation:
             model_time_s=self.model_time_s, model_error_ratio=self.f1_models.error_ratio(self._seen(state), self.paths_done(state)),
             lost_fractions=stats[:, N_STATS:] / (paper.WEIGHT_SCALE * paths[:, None]) if self.weighted else None,
         )
+
+
+    def _exact_result(self) -> RunResult:
+        """The table of the exact estimator (:mod:`vcavity.simulate.exact`): no counts, no paths."""
+        c = self.config
+        n_inc = len(c.incidence)
+        brdf, stderr, albedo, lost, error = self.exact.tabulated(c.orders)
+        zeros = np.zeros(n_inc, np.int64)
+        return RunResult(
+            theta_i=np.array([d.theta_i for d in c.incidence]), phi_i=np.array([d.phi_i for d in c.incidence]),
+            order=np.array(c.orders, dtype=np.int64), counts=np.zeros(brdf.shape, np.int64), paths=zeros,
+            absorbed_paths=zeros, truncated_paths=zeros, degenerate_paths=zeros, max_bounces_seen=zeros,
+            unbinned_paths=zeros, sensor=self.sensor, compute_time_s=self.exact.time_s, compile_time_s=0.0,
+            brdf=brdf, brdf_stderr=stderr, albedo=albedo, estimator=EXACT,
+            order_source=order_source(c.orders, EXACT), folded=np.zeros(n_inc, bool), relative_error=error,
+            target_reached=None, model_time_s=self.exact.time_s, lost_fractions=lost)
 
 
 def _execute_here(simulation: Simulation, units):

@@ -24,11 +24,12 @@ from vcavity.sweep.spec import Point, Sweep, SweepError
 def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
     """Store a finished point's :class:`~vcavity.simulate.pipeline.RunResult` in ``data`` (as
     :func:`vcavity.io.writer.write_result` stores a run: fractions of paths, or of
-    energy for the weighted estimator)."""
-    paths = np.asarray(result.paths, np.float64)
-    lost = {"absorbed": result.absorbed_paths / paths, "truncated": result.truncated_paths / paths,
-            "degenerate": result.degenerate_paths / paths}
-    if result.lost_fractions is not None:
+    energy for the weighted estimator, the model's for the exact one)."""
+    if result.lost_fractions is None:
+        paths = np.asarray(result.paths, np.float64)
+        lost = {"absorbed": result.absorbed_paths / paths, "truncated": result.truncated_paths / paths,
+                "degenerate": result.degenerate_paths / paths}
+    else:  # weighted (energy) or exact (the model's) fractions
         lost = {name: result.lost_fractions[:, k] for k, name in enumerate(("absorbed", "truncated", "degenerate"))}
     per_direction = {"brdf": result.brdf, "brdf_stderr": result.brdf_stderr, "counts": result.counts,
                      "albedo": result.albedo, "paths": result.paths, "max_bounces_seen": result.max_bounces_seen,
