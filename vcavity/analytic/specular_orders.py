@@ -14,7 +14,8 @@ most four outcomes, each in a slot whose share of the opening varies continuousl
 
 Quadrature: a mesh pushed forward onto the sensor (physics.md sec. 13). The square
 ``(τ, u2)``, ``u1 = sin²(π τ / 2)`` (which removes the sampler's square-root behaviour at
-both ends), is cut into ``M x M`` quads. At each vertex every slot's value (fraction ·
+both ends), is cut into ``M x M`` quads, the last row of them halved again and again toward
+``τ = 1`` (:func:`tau_nodes`: the deepest grooves change fastest). At each vertex every slot's value (fraction ·
 survival), bounce count and exit direction, as a point of the sensor's square in cell
 units, are evaluated once. A quad whose four corners share a slot's bounce count carries
 the slot's mass (its bilinear interpolant times the exact ``du1/dτ``) to the sensor as
@@ -56,6 +57,8 @@ MAX_QUADS = 4096
 #: Fixed number of accumulation chunks (sums in a fixed order: the result does not depend
 #: on the thread count).
 N_CHUNKS = 64
+#: Halving steps of the mesh toward ``τ = 1`` (:func:`tau_nodes`).
+TAIL_LEVELS = 40
 #: Largest ``u1`` (the sampler's deepest groove the quadrature reaches).
 _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
@@ -97,18 +100,37 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, un
     return value, bounces, image
 
 
-def tau_weights(n_quads):
-    """Weights of the hat functions of ``n_quads`` equal τ-intervals against ``du1/dτ``.
+def tau_nodes(n_quads):
+    """The τ vertices of an ``n_quads``-quad mesh: equal steps ``h = 1/n_quads`` up to
+    ``1 - h``, then :data:`TAIL_LEVELS` steps halving toward 1 (``1 - h 2^-k``), then 1.
+
+    Near ``τ = 1`` the sampler's deepest grooves (``tan θ_m`` growing like ``log`` or like
+    ``1/(1 - τ)``) move the exit directions and bounce counts ever faster; halving steps
+    keep each row's image small, and leave the vertex at ``τ = 1`` (the deepest groove,
+    often beyond the bounce cap) a weight of ``~ (h 2^-TAIL_LEVELS)²`` instead of ``~ h²``.
+    """
+    h = 1.0 / n_quads
+    steps = np.arange(n_quads) * h
+    tail = 1.0 - h * 0.5 ** np.arange(1, TAIL_LEVELS + 1)
+    return np.concatenate([steps, tail[tail > steps[-1]], [1.0]])
+
+
+def tau_weights(nodes):
+    """Weights of the hat functions on the τ intervals between ``nodes`` against ``du1/dτ``.
 
     ``du1/dτ = (π/2) sin(π τ)``; on ``[a, b]`` the weights of the end points are
-    ``∫ (b - τ)/h du1`` and ``∫ (τ - a)/h du1``, in closed form. Returns ``(lo, hi)``, one
-    per interval; all of them sum to 1 (the sampler's whole measure).
+    ``∫ (b - τ)/(b - a) du1`` and ``∫ (τ - a)/(b - a) du1``, in closed form. Returns
+    ``(lo, hi)``, one per interval; over ``[0, 1]`` they sum to 1 (the sampler's whole measure).
     """
-    t = np.arange(n_quads + 1) / n_quads
-    f0 = -0.5 * np.cos(math.pi * t)  # ∫ (π/2) sin(π τ) dτ
-    f1 = -0.5 * t * np.cos(math.pi * t) + np.sin(math.pi * t) / (2.0 * math.pi)  # ∫ τ (π/2) sin(π τ) dτ
-    mass = np.diff(f0)
-    hi = (np.diff(f1) - t[:-1] * mass) * n_quads
+    t = np.asarray(nodes, dtype=np.float64)
+    a, b = t[:-1], t[1:]
+    d = b - a
+    mid = np.cos(0.5 * math.pi * (a + b))
+    half = np.sin(0.5 * math.pi * d)
+    # ∫_a^b (π/2) sin(π τ) dτ = (cos πa - cos πb)/2, as a product (no cancellation)
+    mass = np.sin(0.5 * math.pi * (a + b)) * half
+    # ∫_a^b (τ - a)(π/2) sin(π τ) dτ = -d cos(πb)/2 + (sin πb - sin πa)/(2π), by parts
+    hi = (-0.5 * d * np.cos(math.pi * b) + mid * half / math.pi) / d
     return mass - hi, hi
 
 
@@ -325,11 +347,12 @@ def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_qua
     kind, params = distributions.params_from(material.distribution, material.distribution_params)
     facet_kind, _, facet_data = facets.prepare(material.facet, material.facet_params)
     n_quads = int(n_quads)
-    nodes = np.arange(n_quads + 1) / n_quads
-    value, bounces, image = _vertices(nodes, nodes, np.ascontiguousarray(incident, dtype=np.float64), kind,
+    taus = tau_nodes(n_quads)
+    u2s = np.arange(n_quads + 1) / n_quads
+    value, bounces, image = _vertices(taus, u2s, np.ascontiguousarray(incident, dtype=np.float64), kind,
                                       params, facet_kind, facet_data, material.facet == "mirror",
                                       int(max_bounces), int(resolution))
-    w_lo, w_hi = tau_weights(n_quads)
+    w_lo, w_hi = tau_weights(taus)
     return _accumulate(value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order), int(max_bounces),
                        int(resolution))
 
@@ -393,5 +416,5 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
                           max_order=int(max_order), max_bounces=int(max_bounces), quads=n)
 
 
-__all__ = ["specular_orders", "mesh_integrals", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
+__all__ = ["specular_orders", "mesh_integrals", "tau_nodes", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
            "DEFAULT_TOLERANCE"]
