@@ -33,7 +33,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.compare.single_bounce import material_of_table
-from vcavity.compare.text import angle, fixed, fmt
+from vcavity.compare.text import angle, fixed, fmt, verdict
 from vcavity.io.schema import order_name
 from vcavity.sensor.directions import incident_vector
 
@@ -184,14 +184,7 @@ def format_order_report(report: OrdersReport) -> str:
             f"p = {fmt(c.p_value)}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
             f"largest cell deviation {fmt(c.max_abs_z)} sigma in cell {c.max_z_cell})  -> {c.verdict(level)}",
         ]
-    if report.passed:
-        verdict = "PASS"
-    elif any(d.chi_square.failure or (d.chi_square.testable and not d.chi_square.passed(level))
-             or not d.albedo_test.passed(level) for d in report.directions):
-        verdict = "FAIL"
-    else:
-        verdict = "NOT TESTABLE (a chi-square has fewer than two categories; not a pass)"
-    lines.append(f"result: {verdict}")
+    lines.append(f"result: {verdict(report, name)}")
     return "\n".join(lines)
 
 

@@ -46,7 +46,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import ConfigError, Material
-from vcavity.compare.text import angle, fixed, fmt
+from vcavity.compare.text import angle, fixed, fmt, verdict
 from vcavity.io.schema import order_name
 from vcavity.sensor.directions import incident_vector
 
@@ -205,22 +205,6 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
     return report
 
 
-def _verdict(report: ComparisonReport) -> str:
-    """``PASS``, ``FAIL`` or, when nothing failed but some chi-square had fewer than two
-    categories, ``NOT TESTABLE`` (never a pass: :mod:`vcavity.analytic.statistics`)."""
-    if report.passed:
-        return "PASS"
-    level = report.per_test_level
-    failed = [d for d in report.directions
-              if d.chi_square.failure or (d.chi_square.testable and not d.chi_square.passed(level))
-              or not d.albedo_test.passed(level)]
-    if failed:
-        return "FAIL"
-    untestable = [d for d in report.directions if not d.chi_square.testable]
-    return (f"NOT TESTABLE (the chi-square of {len(untestable)} direction(s) has fewer than two categories: "
-            "too few paths for the f1 test; not a pass)")
-
-
 def format_report(report: ComparisonReport) -> str:
     """Human-readable text of a :class:`ComparisonReport` (what ``vcavity compare`` prints)."""
     m = report.material
@@ -246,7 +230,7 @@ def format_report(report: ComparisonReport) -> str:
             f"  f1 albedo: table {fixed(d.table_albedo.get(1, float('nan')))}  model {fixed(d.vcavity_f1_albedo)}  "
             f"z = {fmt(a.z)}  p = {fmt(a.p_value)}  -> {a.verdict(level)}",
         ]
-    lines.append(f"result: {_verdict(report)}")
+    lines.append(f"result: {verdict(report, 'f1')}")
     return "\n".join(lines)
 
 

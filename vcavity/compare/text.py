@@ -1,4 +1,4 @@
-"""Figures in the comparison reports: readable widths for any value a table can hold."""
+"""Figures and verdicts of the comparison reports: readable widths for any value a table can hold."""
 
 from __future__ import annotations
 
@@ -28,3 +28,23 @@ def angle(radians: float) -> str:
     if math.isfinite(degrees) and abs(degrees) < 1e4:
         return f"{degrees:7.2f}"
     return f"{fmt(degrees):>7}"
+
+
+def verdict(report, tested: str) -> str:
+    """``PASS``, ``FAIL`` or, when nothing failed but some chi-square had fewer than two
+    categories, ``NOT TESTABLE`` (never a pass: :mod:`vcavity.analytic.statistics`).
+
+    ``report`` has ``passed``, ``per_test_level`` and ``directions`` whose items carry a
+    ``chi_square`` and an ``albedo_test``; ``tested`` names the order in the message.
+    """
+    if report.passed:
+        return "PASS"
+    level = report.per_test_level
+    failed = [d for d in report.directions
+              if d.chi_square.failure or (d.chi_square.testable and not d.chi_square.passed(level))
+              or not d.albedo_test.passed(level)]
+    if failed:
+        return "FAIL"
+    untestable = [d for d in report.directions if not d.chi_square.testable]
+    return (f"NOT TESTABLE (the chi-square of {len(untestable)} direction(s) has fewer than two categories: "
+            f"too few paths for the {tested} test; not a pass)")
