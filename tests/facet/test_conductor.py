@@ -7,18 +7,24 @@ cosines (fixed seed; rejects at p < 1e-3, a false-positive rate of 1e-3 over the
 of seed); everything else is deterministic.
 """
 
-import math
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 from numba import njit
 from scipy.stats import chi2
 
-from vcavity.facet import conductor
-from vcavity.facet.common import ABSORBED, BRACKET_BINS, SCATTERED, reflect
-from vcavity.facet.fresnel_conductor import fresnel_conductor, fresnel_conductor_array
-from vcavity.parameters import ParameterError
-from vcavity.rng import next_uniform
+_ROOT = str(Path(__file__).resolve().parents[2])
+if _ROOT not in sys.path:
+    sys.path.append(_ROOT)
+
+from tests.facet.frames import incoming  # noqa: E402
+from vcavity.facet import conductor  # noqa: E402
+from vcavity.facet.common import ABSORBED, BRACKET_BINS, SCATTERED, reflect  # noqa: E402
+from vcavity.facet.fresnel_conductor import fresnel_conductor, fresnel_conductor_array  # noqa: E402
+from vcavity.parameters import ParameterError  # noqa: E402
+from vcavity.rng import next_uniform  # noqa: E402
 
 # gold at 659.5, 548.6 and 450.9 nm (Johnson & Christy 1972), a dielectric-like and an
 # extreme index, and eta < 1 without absorption (total internal reflection near grazing)
@@ -106,20 +112,12 @@ def _events(n, seed, dx, dy, dz, cos_in, nx, nz, data):
     return reflected, one_draw, mirror_direction
 
 
-def _incoming(cos_in, tilt=0.3, psi=0.8):
-    """A direction of travel d with -(d.n) = cos_in onto the facet normal n = (sin tilt, 0, cos tilt)."""
-    nx, nz = math.sin(tilt), math.cos(tilt)
-    s = math.sqrt(1.0 - cos_in * cos_in)
-    d = (-cos_in * nx + s * math.cos(psi) * nz, s * math.sin(psi), -cos_in * nz - s * math.cos(psi) * nx)
-    return d, nx, nz
-
-
 def test_event_reflects_with_probability_f_drawing_one_uniform():
     n = 200_000
     data = conductor.prepare({"eta": 0.43, "k": 2.455})
     statistic, dof = 0.0, 0
     for seed, cos_in in enumerate((0.02, 0.1, 0.3, 0.55, 0.8, 0.999)):
-        d, nx, nz = _incoming(cos_in)
+        d, nx, nz = incoming(cos_in)
         reflected, one_draw, mirror_direction = _events(n, 1000 + seed, *d, cos_in, nx, nz, data)
         assert one_draw and mirror_direction
         f = fresnel_conductor(cos_in, 0.43, 2.455)

@@ -33,8 +33,8 @@ def fresnel_conductor(cos_theta, eta, k):
     Parameters
     ----------
     cos_theta : float
-        ``|cos|`` of the angle between the direction and the facet normal, in [0, 1]
-        (the absolute value is taken; values above 1 by rounding are clamped).
+        Cosine to the facet normal, as for
+        :func:`~vcavity.facet.fresnel.fresnel_dielectric` (``|cos|``, clamped to 1).
     eta : float
         Real part of the relative index (conductor / outside medium), ``eta > 0``.
     k : float
