@@ -5,7 +5,7 @@ relative to that medium is ``n = eta + i k`` (``eta > 0``, extinction ``k >= 0``
 |d.m|`` is the cosine to the facet normal. The unpolarised reflectance is ``F = (R_s +
 R_p)/2`` with ``R_s = |r_s|^2``, ``R_p = |r_p|^2`` (Born & Wolf, Principles of Optics,
 ch. 14; pbrt-v4 ``FrComplex``, Pharr, Jakob and Humphreys, Physically Based Rendering 4th
-ed., sec. 9.3.6; Mitsuba 3 ``fresnel_conductor``). physics.md sec. 4 states the formulas
+ed., sec. 9.3; Mitsuba 3 ``fresnel_conductor``). physics.md sec. 4 states the formulas
 and how they are arranged here.
 
 The scalar :func:`fresnel_conductor` is ``numba.njit(cache=True)`` and can be called from
