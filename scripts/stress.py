@@ -7,7 +7,8 @@ indices. Prints one row per case and exits 1 if any invariant breaks.
 The grid sweeps every axis of the issue against a base material (Beckmann alpha 0.5, IL
 kd 0.5, eta 1.5, theta_i 45 deg) and adds the nasty combinations: tiny roughness at grazing
 light for every distribution, huge GGX roughness, 1000:1 anisotropy at grazing light,
-eta 1 + 1e-9 and 1000 with kd 1e-6 and 1, every distribution with both facet types.
+eta 1 + 1e-9 and 1000 with kd 1e-6 and 1, every distribution with every facet model, conductors
+with extreme indices.
 Each case is simulated, written to a real HDF5 table in a temporary folder and read back.
 
 Invariants (a violation makes the exit status 1):
@@ -155,6 +156,8 @@ def build_cases(quick: bool = False) -> list[Case]:
     for d in distributions.NAMES:
         c.append(Case(f"dist {d} IL", _mat(distribution=d, **_moderate(d)), 45.0))
         c.append(Case(f"dist {d} mirror", _mat(distribution=d, facet="mirror", **_moderate(d)), 45.0))
+        c.append(Case(f"dist {d} conductor", _mat(distribution=d, facet="conductor", eta=0.43, k=2.455,  # gold
+                                                  **_moderate(d)), 45.0))
     # 2. nasty combinations
     for d in distributions.NAMES:
         for t in (0.0, 89.99):
@@ -183,6 +186,9 @@ def build_cases(quick: bool = False) -> list[Case]:
             for t in (0.0, 89.9):
                 c.append(Case(f"eta={e:.10g} kd={k:g}", _mat(eta=e, kd=k), t))
         c.append(Case(f"eta={e:.10g} kd=0 grazing", _mat(eta=e, kd=0.0), 89.99))
+    for eta, k in ((0.05, 20.0), (1e-3, 1e6), (0.7, 0.0), (1e6, 1e-3)):  # metals far out; eta < 1, k = 0: TIR
+        for t in (0.0, 89.9):
+            c.append(Case(f"conductor eta={eta:g} k={k:g}", _mat(facet="conductor", eta=eta, k=k), t))
     c.append(Case("eta=1e4 kd=1 (rejection)", _mat(eta=1e4, kd=1.0), 0.0))
     c.append(Case("eta=1e300 kd=1", _mat(eta=1e300, kd=1.0), 45.0))
     c.append(Case("lambert ggx a=3 kd=1", _mat(distribution="ggx", alpha=3.0, eta=1.0, kd=1.0), 60.0,

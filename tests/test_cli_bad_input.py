@@ -88,3 +88,19 @@ def test_values_just_inside_the_edge_run(tmp_path, capsys):
 ])
 def test_missing_and_misplaced_parameters(tmp_path, capsys, material, message):
     assert message in _run_bad(tmp_path, capsys, material=material)
+
+
+CONDUCTOR = {"facet": '"conductor"', "kd": None, "eta": "0.43", "k": "2.455"}
+CONDUCTOR_EDGES = [
+    ({"eta": "0.0"}, "material.eta = 0.0: must be > 0"),
+    ({"eta": "-0.43"}, "material.eta = -0.43: must be > 0"),
+    ({"k": "-1e-300"}, "material.k = -1e-300: must be >= 0"),
+    ({"kd": "0.5"}, "material.kd = 0.5: not used by facet 'conductor' (it takes: eta, k)"),
+]
+
+
+@pytest.mark.parametrize("edit, message", CONDUCTOR_EDGES,
+                         ids=[" ".join(f"{k}={v}" for k, v in e[0].items()) for e in CONDUCTOR_EDGES])
+def test_bad_conductor_input_is_a_one_line_error_without_output(tmp_path, capsys, edit, message):
+    line = _run_bad(tmp_path, capsys, material={**CONDUCTOR, **edit})
+    assert message in line

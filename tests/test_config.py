@@ -190,7 +190,8 @@ ALL_MATERIALS = [
     {"distribution": "student_t", "alpha_x": 0.3, "alpha_y": 0.5, "gamma": 2.5},
 ]
 ALL_FACETS = [{"facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}, {"facet": "interfaced_lambertian", "kd": 0.0},
-              {"facet": "interfaced_lambertian", "kd": 1.0, "eta": 1.0}, {"facet": "mirror"}]
+              {"facet": "interfaced_lambertian", "kd": 1.0, "eta": 1.0}, {"facet": "mirror"},
+              {"facet": "conductor", "eta": 0.14, "k": 3.697}, {"facet": "conductor"}]
 
 
 def test_material_cases_cover_every_registered_component():
@@ -211,6 +212,17 @@ def test_material_round_trips_through_its_flat_dict(dist, facet):
     assert set(m.distribution_params) == set(distributions.value_keys(m.distribution))
     assert set(m.facet_params) == set(facets.value_keys(m.facet))
     assert m.isotropic == (m.distribution_params.get("alpha_x") == m.distribution_params.get("alpha_y"))
+
+
+def test_conductor_defaults_are_gold_and_its_keys_are_its_own():
+    m = validate({"material": {"alpha": 0.3, "facet": "conductor"}}).material
+    assert m.facet_params == {"eta": 0.43, "k": 2.455}  # gold at 548.6 nm, Johnson & Christy 1972
+    with pytest.raises(ConfigError, match=r"^material\.kd = 0\.5: not used by facet 'conductor' \(it takes: eta, k\)$"):
+        validate({"material": {"alpha": 0.3, "facet": "conductor", "kd": 0.5}})
+    with pytest.raises(ConfigError, match=r"^material\.k = 1\.0: not used by facet 'interfaced_lambertian'"):
+        validate({"material": {"alpha": 0.3, "kd": 0.5, "k": 1.0}})
+    with pytest.raises(ConfigError, match=r"^material\.k = -1: must be >= 0$"):
+        validate({"material": {"alpha": 0.3, "facet": "conductor", "k": -1}})
 
 
 def test_material_from_dict_validates():

@@ -12,8 +12,8 @@ A run config has four tables::
     [material]                     # the microsurface
     distribution = "beckmann"      # any registered distribution (microfacet/registry.py)
     alpha = 0.6                    # ... and its parameters (see `vcavity run --help`)
-    facet = "interfaced_lambertian"  # any registered facet model (facet/registry.py)
-    kd = 0.9                       # ... and its parameters
+    facet = "interfaced_lambertian"  # any registered facet model (facet/registry.py):
+    kd = 0.9                       # ... and its parameters ("conductor": eta, k; "mirror": none)
     eta = 1.5
 
     [incidence]

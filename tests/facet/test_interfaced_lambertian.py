@@ -10,6 +10,8 @@ each z-test at |z| > 5 (5.7e-7 per test).
 """
 
 import math
+import sys
+from pathlib import Path
 
 import numba
 import numpy as np
@@ -18,9 +20,14 @@ from numba import njit
 from scipy.integrate import quad
 from scipy.stats import chi2
 
-from vcavity.facet import interfaced_lambertian as il
-from vcavity.facet.common import ABSORBED
-from vcavity.facet.fresnel import (
+_ROOT = str(Path(__file__).resolve().parents[2])
+if _ROOT not in sys.path:
+    sys.path.append(_ROOT)
+
+from tests.facet.frames import incoming  # noqa: E402
+from vcavity.facet import interfaced_lambertian as il  # noqa: E402
+from vcavity.facet.common import ABSORBED  # noqa: E402
+from vcavity.facet.fresnel import (  # noqa: E402
     emergence_probability,
     fresnel_dielectric,
     fresnel_dielectric_array,
@@ -29,7 +36,7 @@ from vcavity.facet.fresnel import (
     r_e,
     r_i,
 )
-from vcavity.parameters import ParameterError
+from vcavity.parameters import ParameterError  # noqa: E402
 
 
 def data_of(kd, eta):
@@ -290,14 +297,6 @@ def _events(variant, n, seed, dx, dy, dz, cos_in, nx, nz, data):
     return kinds, out, consumed
 
 
-def _incoming(cos_in, tilt=0.3, psi=0.8):
-    """A direction of travel d with -(d.n) = cos_in onto the facet normal n = (sin tilt, 0, cos tilt)."""
-    nx, nz = math.sin(tilt), math.cos(tilt)
-    s = math.sqrt(1.0 - cos_in * cos_in)
-    d = (-cos_in * nx + s * math.cos(psi) * nz, s * math.sin(psi), -cos_in * nz - s * math.cos(psi) * nx)
-    return d, nx, nz
-
-
 def _z(count, n, p):
     return (count - n * p) / math.sqrt(max(n * p * (1.0 - p), 1e-300))
 
@@ -307,7 +306,7 @@ def _z(count, n, p):
 def test_event_outcomes_and_emerging_directions(kd, eta, cos_in):
     values = {"kd": kd, "eta": eta}
     variant, data = il.variant(values), il.prepare(values)
-    (dx, dy, dz), nx, nz = _incoming(cos_in)
+    (dx, dy, dz), nx, nz = incoming(cos_in)
     n = 200_000
     kinds, out, consumed = _events(variant, n, 12345 + int(1000 * cos_in), dx, dy, dz, cos_in, nx, nz, data)
     assert consumed == n  # every event draws from the stream (a mirror would not)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from numba import literally, njit
 
-from vcavity.facet import interfaced_lambertian, mirror, registry
+from vcavity.facet import conductor, interfaced_lambertian, mirror, registry
 from vcavity.facet.common import ABSORBED, SCATTERED
 from vcavity.parameters import Number, ParameterError
 
@@ -21,12 +21,13 @@ VALUES = {
                               ({"kd": 0.0, "eta": 1.5}, "specular dielectric"),
                               ({"kd": 0.9, "eta": 1.0}, "lambertian")],
     "mirror": [({}, "mirror")],
+    "conductor": [({"eta": 0.43, "k": 2.455}, "conductor")],
 }
 
 
 def test_registered_modules_and_names():
-    assert registry.NAMES == ("interfaced_lambertian", "mirror")
-    assert registry.MODULES == (interfaced_lambertian, mirror)
+    assert registry.NAMES == ("interfaced_lambertian", "mirror", "conductor")
+    assert registry.MODULES == (interfaced_lambertian, mirror, conductor)
     assert len(set(registry.NAMES)) == len(registry.NAMES) == len(registry.MODULES)
     assert tuple(m.__name__.rsplit(".", 1)[1] for m in registry.MODULES) == registry.FACET_MODULES
     assert set(VALUES) == set(registry.NAMES)
@@ -92,7 +93,7 @@ def test_prepare_variant_and_body(name):
             t = registry.transmittance(kind, c, data)
             assert r == module.reflectance(c, data) and t == module.transmittance(c, data)
             assert 0.0 <= r <= 1.0 and 0.0 <= t <= 1.0
-            assert abs(r + t - 1.0) <= 1e-15 or name == "mirror"
+            assert abs(r + t - 1.0) <= 1e-15 or (name in ("mirror", "conductor") and t == 0.0)
 
 
 def test_mirror_and_limits_through_the_registry():
@@ -133,9 +134,15 @@ def _mirror_event(variant, seed, dx, dy, dz, cos_in, nx, nz, data):
     return mirror.event(variant, state, dx, dy, dz, cos_in, nx, nz, data)
 
 
+@njit(cache=True)
+def _conductor_event(variant, seed, dx, dy, dz, cos_in, nx, nz, data):
+    state = np.uint64(seed)
+    return conductor.event(variant, state, dx, dy, dz, cos_in, nx, nz, data)
+
+
 @pytest.mark.parametrize("name", registry.NAMES)
 def test_jitted_dispatch_is_the_module_event(name):
-    direct = {"interfaced_lambertian": _il_event, "mirror": _mirror_event}[name]
+    direct = {"interfaced_lambertian": _il_event, "mirror": _mirror_event, "conductor": _conductor_event}[name]
     cos_in, nx, nz = 0.6, math.sin(0.4), math.cos(0.4)
     s = math.sqrt(1.0 - cos_in * cos_in)
     d = (-cos_in * nx + s * nz, 0.0, -cos_in * nz - s * nx)

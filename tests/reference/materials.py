@@ -32,6 +32,8 @@ from functools import lru_cache
 import numpy as np
 from scipy import integrate
 
+from tests.reference import conductor_fresnel
+
 DISTRIBUTIONS = ("beckmann", "ggx", "phong", "gaussian", "student_t")
 FACETS = ("interfaced_lambertian", "mirror")
 _DEFAULT_ETA = 1.5  # vcavity/config.py docstring and facet parameter default
@@ -43,8 +45,9 @@ class Material:
 
     ``roughness`` holds the distribution's parameters by name: ``alpha_x``, ``alpha_y``
     (beckmann, ggx, student_t; plus ``gamma`` for student_t), ``exponent`` (phong),
-    ``sigma`` (gaussian, radians). ``facet`` is ``"mirror"`` or
-    ``"interfaced_lambertian"`` (then ``kd`` and ``eta`` are set).
+    ``sigma`` (gaussian, radians). ``facet`` is ``"mirror"``,
+    ``"interfaced_lambertian"`` (then ``kd`` and ``eta`` are set) or ``"conductor"``
+    (``eta`` and ``k``: the complex index ``eta + i k``; no body).
     """
 
     distribution: str
@@ -52,6 +55,7 @@ class Material:
     facet: str = "interfaced_lambertian"
     kd: float = 0.0
     eta: float = 1.0
+    k: float = 0.0
 
     @property
     def is_mirror(self) -> bool:
@@ -62,12 +66,16 @@ class Material:
         return (not self.is_mirror) and self.kd > 0.0
 
     @property
+    def is_conductor(self) -> bool:
+        return self.facet == "conductor"
+
+    @property
     def has_interface(self) -> bool:
-        """True when the facet reflects specularly (mirror, or a dielectric eta > 1)."""
-        return self.is_mirror or self.eta > 1.0
+        """True when the facet reflects specularly (mirror, conductor, or a dielectric eta > 1)."""
+        return self.is_mirror or self.is_conductor or self.eta > 1.0
 
     def key(self):
-        return (self.distribution, tuple(sorted(self.roughness.items())), self.facet, self.kd, self.eta)
+        return (self.distribution, tuple(sorted(self.roughness.items())), self.facet, self.kd, self.eta, self.k)
 
 
 def parse_material(raw: dict) -> Material:
@@ -90,16 +98,19 @@ def parse_material(raw: dict) -> Material:
         rough["exponent"] = float(raw.pop("exponent"))
     elif dist == "gaussian":
         rough["sigma"] = float(raw.pop("sigma"))
+    k = 0.0
     if facet == "mirror":
         kd, eta = 0.0, 1.0
     elif facet == "interfaced_lambertian":
         kd = float(raw.pop("kd"))
         eta = float(raw.pop("eta", _DEFAULT_ETA))
+    elif facet == "conductor":  # defaults: gold at 548.6 nm (Johnson & Christy 1972), as documented
+        kd, eta, k = 0.0, float(raw.pop("eta", 0.43)), float(raw.pop("k", 2.455))
     else:
         raise ValueError(f"unknown facet {facet!r}")
     if raw:
         raise ValueError(f"unused material keys: {sorted(raw)}")
-    return Material(dist, rough, facet, kd, eta)
+    return Material(dist, rough, facet, kd, eta, k)
 
 
 # ------------------------------------------------------------------ distributions
@@ -280,9 +291,13 @@ def emergence_probability(kd: float, eta: float) -> float:
 
 
 def facet_reflectance(material: Material, cos_i) -> np.ndarray:
-    """Specular reflectance of the facet: 1 for a mirror, Fresnel ``F`` otherwise."""
+    """Specular reflectance of the facet: 1 for a mirror, the complex-index Fresnel ``F`` of
+    tests/reference/conductor_fresnel.py for a conductor, the dielectric ``F`` otherwise."""
     if material.is_mirror:
         return np.ones_like(np.asarray(cos_i, dtype=np.float64))
+    if material.is_conductor:
+        return conductor_fresnel.fresnel_conductor(np.abs(np.asarray(cos_i, dtype=np.float64)), material.eta,
+                                                   material.k)
     return fresnel_reflectance(cos_i, material.eta)
 
 

@@ -26,10 +26,18 @@ phi_i_deg) is one run over every incident direction; its seed is a hash of
 simulation.seed and its material, so adding or reordering values of an axis does not
 change the other points. incidence.paths (one value) is the paths of every direction.
 
+paired axes: one axis whose points set several keys together (equal-length lists, one
+label list naming the points, label or label_<units>), e.g. a metal per wavelength:
+  [sweep.paired.wavelength]
+  label_nm = [659.5, 548.6, 450.9]   # the axis values
+  eta = [0.14, 0.43, 1.38]           # point j sets eta[j] and k[j] together
+  k = [3.697, 2.455, 1.914]          # (gold, Johnson & Christy 1972)
+The lists it sets are stored as coordinates along the axis (eta(wavelength), ...).
+
 output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
 readable with xarray.open_dataset(OUT, engine="h5netcdf"); written again after every
 point, so an interrupted sweep keeps its finished points: continue it with --resume.
-docs/sweeps.md; example: runs/sweep_roughness_eta.toml
+docs/sweeps.md; examples: runs/sweep_roughness_eta.toml, runs/sweep_gold_rgb.toml
 """
 
 

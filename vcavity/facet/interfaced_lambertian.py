@@ -30,7 +30,7 @@ import math
 import numpy as np
 
 from vcavity._numba.jit import njit
-from vcavity.facet.common import ABSORBED, SCATTERED, reflect
+from vcavity.facet.common import ABSORBED, BRACKET_BINS, SCATTERED, bracketed_below, reflect, reflectance_brackets
 from vcavity.facet.fresnel import (
     emergence_probability,
     fresnel_dielectric,
@@ -59,7 +59,7 @@ FULL = 2  # the full IL facet
 VARIANTS = ("specular dielectric", "lambertian", "interfaced lambertian")
 
 #: Bins of the Fresnel bracketing table over cos in [0, 1].
-FRESNEL_BINS = 256
+FRESNEL_BINS = BRACKET_BINS
 # facet data layout: [eta, emergence probability a, F brackets (FRESNEL_BINS x 2, flat)]
 _ETA = 0
 _EMERGENCE = 1
@@ -81,30 +81,11 @@ def variant(values) -> int:
 def fresnel_brackets(eta: float) -> np.ndarray:
     """Lower and upper bounds of F(cos, eta) on each of ``FRESNEL_BINS`` cosine bins.
 
-    Returns a ``(FRESNEL_BINS, 2)`` array. The facet event decides ``u < F(cos)`` from
-    the bounds of the cosine's bin and evaluates the exact F (physics.md sec. 4) only
-    when ``u`` falls between them, so every decision is the exact one while most
-    evaluations are skipped.
-
-    F is monotone in the cosine except near its single minimum (the pseudo-Brewster
-    angle, which for large eta lies at small cosines). A bin gets the bounds of its
-    end points only when F is monotone in the same sense over the bin and both its
-    neighbours (checked on 32 interior points each); every other bin gets the
-    impossible bounds (-1, 2), which always fall through to the exact F.
+    A ``(FRESNEL_BINS, 2)`` array built by :func:`vcavity.facet.common.reflectance_brackets`
+    from the dielectric F (physics.md sec. 4): the facet event decides ``u < F(cos)`` from
+    it and evaluates F only between the bounds.
     """
-    n_fine = 32
-    c = np.linspace(0.0, 1.0, FRESNEL_BINS * n_fine + 1)
-    f = fresnel_dielectric_array(c, float(eta))
-    steps = np.diff(f).reshape(FRESNEL_BINS, n_fine)
-    sense = np.where(np.all(steps <= 0.0, axis=1), -1, np.where(np.all(steps >= 0.0, axis=1), 1, 0))
-    padded = np.concatenate([[sense[0]], sense, [sense[-1]]])
-    trusted = (sense != 0) & (padded[:-2] == sense) & (padded[2:] == sense)
-    ends = f[::n_fine]
-    brackets = np.empty((FRESNEL_BINS, 2))
-    brackets[:, 0] = np.minimum(ends[:-1], ends[1:])
-    brackets[:, 1] = np.maximum(ends[:-1], ends[1:])
-    brackets[~trusted] = (-1.0, 2.0)
-    return brackets
+    return reflectance_brackets(lambda c: fresnel_dielectric_array(c, float(eta)))
 
 
 def prepare(values) -> np.ndarray:
@@ -152,15 +133,9 @@ def transmittance(cos_theta, data):
 @njit(cache=True, inline="always")
 def _below_fresnel(u, cos_in, data):
     """Exactly ``u < F(cos_in, eta)``, mostly decided from the bracketing table."""
-    j = int(cos_in * FRESNEL_BINS)
-    if j >= FRESNEL_BINS:
-        j = FRESNEL_BINS - 1
-    elif j < 0:
-        j = 0
-    if u < data[_BRACKETS + 2 * j]:
-        return True
-    if u >= data[_BRACKETS + 2 * j + 1]:
-        return False
+    decided, below = bracketed_below(u, cos_in, data, _BRACKETS)
+    if decided:
+        return below
     return u < fresnel_dielectric(cos_in, data[_ETA])
 
 

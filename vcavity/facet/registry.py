@@ -36,6 +36,7 @@ from vcavity._numba.registry import Registry
 FACET_MODULES = (
     "interfaced_lambertian",
     "mirror",
+    "conductor",
 )
 
 REGISTRY = Registry(

@@ -38,7 +38,9 @@ def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
     for axis in sweep.axes:
         units = "" if axis.units in (None, "1") else f" ({axis.units})"
         role = "" if axis.name in sweep.point_axes else ", incident direction"
-        lines.append(f"axis {axis.name}{units}{role}: {', '.join(_value(v) for v in axis.values)}")
+        lines.append(f"axis {axis.name}{units}{role}: {', '.join(_value(v) for v in axis.values)}"
+                     + "".join(f"; sets {key} = {', '.join(_value(v) for v in values)}"
+                               for key, values, *_ in axis.paired))
     resolution = attrs.get("sensor_resolution")
     lines.append(f"points: {sweep.n_done()} of {n_points} done ({math.prod(sweep.shape):,} grid positions); "
                  f"sweep seed {attrs.get('seed')}, estimator {attrs.get('estimator')}, sensor "

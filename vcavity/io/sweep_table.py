@@ -74,12 +74,17 @@ class SweepFormatError(ValueError):
 
 @dataclass(frozen=True)
 class GridAxis:
-    """One axis of the grid: its name (the ``[sweep]`` key), values, units, meaning."""
+    """One axis of the grid: its name (the ``[sweep]`` key), values, units, meaning.
+
+    A paired axis (``[sweep.paired.NAME]``, docs/sweeps.md) also has ``paired``: per key
+    it sets, ``(key, values, units, long_name)``, stored as a coordinate along the axis.
+    """
 
     name: str
     values: tuple
     units: str | None = "1"
     long_name: str = ""
+    paired: tuple = ()
 
     @property
     def is_text(self) -> bool:
@@ -88,9 +93,14 @@ class GridAxis:
 
     def array(self) -> np.ndarray:
         """The values as stored: float64, or variable-length UTF-8 strings."""
-        if self.is_text:
-            return np.array(list(self.values), dtype=h5py.string_dtype())
-        return np.array([float(v) for v in self.values], dtype=np.float64)
+        return _stored(self.values)
+
+
+def _stored(values) -> np.ndarray:
+    """Axis or coordinate values as stored: float64, or variable-length UTF-8 strings (names)."""
+    if any(isinstance(v, str) for v in values):
+        return np.array(list(values), dtype=h5py.string_dtype())
+    return np.array([float(v) for v in values], dtype=np.float64)
 
 
 @dataclass
@@ -149,6 +159,7 @@ def _coordinates(sweep: SweepData, dims: tuple[str, ...]) -> str | None:
     """CF ``coordinates`` of a variable on ``dims``: radians of the incidence axes, the
     scalar (not swept) incidence angles, and the cell angles."""
     names = [RADIANS[d] for d in dims if d in RADIANS]
+    names += [key for axis in sweep.axes if axis.name in dims for key, *_ in axis.paired]
     if "theta_i_deg" in dims:
         names += [n for key in sweep.scalars for n in (key, RADIANS[key])]
     if "cell" in dims:
@@ -179,6 +190,14 @@ def _fill(h5, sweep: SweepData) -> None:
         _describe(scale, axis.units, axis.long_name or axis.name,
                   f"Grid axis {axis.name}: the values of [sweep] {axis.name} as written")
         scale.make_scale(axis.name)
+        if axis.paired:
+            scale.attrs["paired_keys"] = " ".join(key for key, *_ in axis.paired)
+    for axis in sweep.axes:  # what a paired axis sets, point by point: coordinates along it
+        for key, values, units, long_name in axis.paired:
+            coordinate = h5.create_dataset(key, data=_stored(values), track_order=True)
+            _describe(coordinate, units, long_name, f"{key} at each point of the paired axis {axis.name} "
+                                                    f"([sweep.paired.{axis.name}] {key} as written)")
+            coordinate.dims[0].attach_scale(h5[axis.name])
     for name, values in (("order", sweep.order), ("cell", np.arange(len(sweep.cells["theta_o"]))),
                          ("xyz", np.array([b"x", b"y", b"z"], dtype="S1"))):
         scale = h5.create_dataset(name, data=values, track_order=True)
@@ -285,8 +304,11 @@ def _read(h5, location: Path) -> SweepData:
     for name in names:
         dataset = h5[name]
         values = [_text(v) for v in dataset[()].tolist()]
+        paired = tuple((key, tuple(_text(v) for v in h5[key][()].tolist()), _text(h5[key].attrs.get("units")),
+                        _text(h5[key].attrs.get("long_name", key)))
+                       for key in _text(dataset.attrs.get("paired_keys", "")).split())
         axes.append(GridAxis(name, tuple(values), _text(dataset.attrs.get("units")),
-                             _text(dataset.attrs.get("long_name", name))))
+                             _text(dataset.attrs.get("long_name", name)), paired=paired))
     sweep = SweepData(axes=tuple(axes), point_axes=tuple(str(attrs["point_axes"]).split()),
                       order=h5["order"][()], cells={name: h5[name][()] for name in CELL_GEOMETRY},
                       attrs={k: v for k, v in attrs.items() if k not in ("format", "format_version", "created_utc",

@@ -10,7 +10,8 @@ values::
     theta_i_deg = [0, 45, 70]        # and distribution, phi_i_deg
 
 The grid is the Cartesian product; a value in ``[sweep]`` replaces the base's value of
-that key. A *point* is one material: a position on every axis except ``theta_i_deg`` and
+that key. A *paired* axis (``[sweep.paired.NAME]``, :mod:`vcavity.sweep.paired`) is one
+axis whose points set several keys together (a metal's ``eta`` and ``k`` per wavelength). A *point* is one material: a position on every axis except ``theta_i_deg`` and
 ``phi_i_deg``, which are the incident directions of the point's run. Every point's
 config is validated before anything is traced (one-line :class:`SweepError` naming the
 field as written: ``sweep.alpha[2] = -1: must be > 0``).
@@ -45,6 +46,8 @@ from vcavity.io.sweep_table import INCIDENCE_AXES, GridAxis, SweepData
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE
 from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.sweep.axes import (PointAxis, axis_keys, grid_axis, grid_names, material_keys, paired_grid_axis, parse_paired,
+                                plain_axis, point_axes, setter_field)
 
 #: Most grid positions (points x directions) of one sweep: validation stays within seconds.
 MAX_GRID_POINTS = 100_000
@@ -54,36 +57,6 @@ _SEED_TAG = "vcavity-sweep-point-v1"
 
 class SweepError(ConfigError):
     """Invalid sweep file; one line naming the field as written, the value, what is accepted."""
-
-
-def _material_keys() -> tuple[str, ...]:
-    keys = [k for name in distributions.NAMES for k in distributions.config_keys(name)]
-    keys += [k for name in facets.NAMES for k in facets.config_keys(name)]
-    return tuple(dict.fromkeys(keys))
-
-
-def axis_keys() -> tuple[str, ...]:
-    """Keys a ``[sweep]`` table accepts: distribution, every registered parameter, the angles."""
-    return ("distribution",) + _material_keys() + INCIDENCE_AXES
-
-
-def _spec_of(key: str):
-    for module in distributions.MODULES + facets.MODULES:
-        for spec in module.PARAMETERS:
-            if key in spec.keys:
-                return spec
-    return None
-
-
-def _axis(key: str, values) -> GridAxis:
-    """A grid axis with units and a long name from the parameter's declaration."""
-    if key == "distribution":
-        return GridAxis(key, tuple(values), None, "microfacet distribution")
-    if key in INCIDENCE_AXES:
-        long_name = "incident polar angle" if key == "theta_i_deg" else "incident azimuth"
-        return GridAxis(key, tuple(values), "degree", long_name)
-    spec = _spec_of(key)
-    return GridAxis(key, tuple(values), getattr(spec, "units", "1"), spec.summary)
 
 
 def point_seed(sweep_seed: int, material) -> int:
@@ -175,17 +148,19 @@ def _fail(field: str, value: Any, accepted: str):
     raise SweepError(f"{field} = {value!r}: {accepted}")
 
 
-def _structure(raw: dict) -> tuple[dict, dict]:
-    """``(base, axes)``: the run tables and the ``[sweep]`` lists, structurally checked."""
+def _structure(raw: dict) -> tuple[dict, dict, tuple[PointAxis, ...]]:
+    """``(base, axes, paired)``: the run tables, the plain ``[sweep]`` lists and the paired
+    axes, structurally checked."""
     if not isinstance(raw, dict):
         _fail("sweep file", raw, "must be a TOML document")
     if "sweep" not in raw:
         raise SweepError("sweep is missing: a sweep file needs a [sweep] table of axes with lists of "
                          "values, e.g. alpha = [0.1, 0.5] (a plain run config runs with vcavity run)")
     table = raw["sweep"]
-    accepted = ", ".join(axis_keys())
+    accepted = ", ".join(axis_keys() + ("paired",))
     if not isinstance(table, dict) or not table:
         _fail("sweep", table, f"must be a table with at least one axis; accepted axes: {accepted}")
+    table = {key: values for key, values in table.items() if key != "paired"}
     for key, values in table.items():
         if key not in axis_keys():
             _fail(f"sweep.{key}", values, f"not a sweep axis; accepted: {accepted}")
@@ -194,35 +169,48 @@ def _structure(raw: dict) -> tuple[dict, dict]:
         for i, value in enumerate(values):
             if isinstance(value, (list, dict)):
                 _fail(f"sweep.{key}[{i}]", value, "must be a single value")
-    if "alpha" in table:
+    paired = ()
+    if "paired" in raw["sweep"]:
+        try:
+            paired = parse_paired(raw["sweep"]["paired"], ("distribution",) + material_keys(), tuple(table))
+        except ValueError as exc:
+            raise SweepError(str(exc)) from None
+    every_axis = [*(plain_axis(k, v) for k, v in table.items()), *paired]
+    swept = {key: (setter_field(axis, key), list(values)) for axis in every_axis for key, values in axis.settings}
+    if "alpha" in swept:
         for key in ("alpha_x", "alpha_y"):
-            if key in table:
-                _fail(f"sweep.{key}", table[key], "give either alpha (isotropic) or alpha_x and alpha_y, not both")
+            if key in swept:
+                _fail(*swept[key], "give either alpha (isotropic) or alpha_x and alpha_y, not both")
     base = {key: value for key, value in raw.items() if key != "sweep"}
     for name in ("material", "incidence"):
         if not isinstance(base.get(name, {}), dict):
             _fail(name, base[name], "must be a TOML table")
-    return base, table
+    return base, table, paired
 
 
-def _applicability(table: dict, material: dict) -> None:
-    """Every parameter axis must be a parameter of every distribution (and the facet) in play."""
-    dists = table.get("distribution", [material.get("distribution", "beckmann")])
-    for i, name in enumerate(table.get("distribution", ())):
-        if name not in distributions.NAMES:
-            _fail(f"sweep.distribution[{i}]", name, f"accepted: {', '.join(distributions.NAMES)}")
+def _applicability(swept: tuple[PointAxis, ...], material: dict) -> None:
+    """Every swept parameter must be a parameter of every distribution (and the facet) in play."""
+    setters = {key: axis for axis in swept for key in axis.keys}
+    dist_axis = setters.get("distribution")
+    names = [dist_axis.values_at(j)["distribution"] for j in range(len(dist_axis))] if dist_axis else \
+        [material.get("distribution", "beckmann")]
+    if dist_axis:
+        for j, name in enumerate(names):
+            if name not in distributions.NAMES:
+                _fail(f"{setter_field(dist_axis, 'distribution')}[{j}]", name,
+                      f"accepted: {', '.join(distributions.NAMES)}")
     facet = material.get("facet", "interfaced_lambertian")
     dist_keys = {k for n in distributions.NAMES for k in distributions.config_keys(n)}
-    for key, values in table.items():
+    for key, axis in setters.items():
+        field, values = setter_field(axis, key), dict(axis.settings)[key]
         if key in dist_keys:
-            for j, name in enumerate(dists):
+            for j, name in enumerate(names):
                 if name in distributions.NAMES and key not in distributions.config_keys(name):
-                    where = f" (sweep.distribution[{j}])" if "distribution" in table else ""
-                    _fail(f"sweep.{key}", values, f"not a parameter of distribution {name!r}{where} "
+                    where = f" ({setter_field(dist_axis, 'distribution')}[{j}])" if dist_axis else ""
+                    _fail(field, list(values), f"not a parameter of distribution {name!r}{where} "
                           f"(it takes: {', '.join(distributions.config_keys(name)) or 'nothing'})")
-        elif key not in INCIDENCE_AXES and key != "distribution" and facet in facets.NAMES \
-                and key not in facets.config_keys(facet):
-            _fail(f"sweep.{key}", values, f"not used by facet {facet!r} "
+        elif key != "distribution" and facet in facets.NAMES and key not in facets.config_keys(facet):
+            _fail(field, list(values), f"not used by facet {facet!r} "
                   f"(it takes: {', '.join(facets.config_keys(facet)) or 'nothing'})")
 
 
@@ -274,72 +262,79 @@ def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> Sw
         One line naming the field as written (``sweep.alpha[2]``, ``material.kd``), the
         value and what is accepted.
     """
-    base, table = _structure(raw)
+    base, table, paired = _structure(raw)
+    written = raw["sweep"]
+    swept = point_axes(written, table, paired)
     material = dict(base.get("material", {}))
-    for key in table:  # a swept roughness replaces the base's roughness keys
-        if key in _ROUGHNESS:
-            for other in (("alpha_x", "alpha_y") if key == "alpha" else ("alpha",)):
-                material.pop(other, None)
-    _applicability(table, material)
+    for axis in swept:  # a swept roughness replaces the base's roughness keys
+        for key in axis.keys:
+            if key in _ROUGHNESS:
+                for other in (("alpha_x", "alpha_y") if key == "alpha" else ("alpha",)):
+                    material.pop(other, None)
+    _applicability(swept, material)
     incidence = dict(base.get("incidence", {}))
     paths = _one_value(incidence, "paths")
     paths = config_mod.DEFAULT_PATHS if paths is None else paths
-    theta_field = "sweep.theta_i_deg" if "theta_i_deg" in table else "incidence.theta_i_deg"
+    thetasetter_field = "sweep.theta_i_deg" if "theta_i_deg" in table else "incidence.theta_i_deg"
     thetas = table.get("theta_i_deg", incidence.get("theta_i_deg", [0.0]))
     theta_listed = isinstance(thetas, list)
     thetas = thetas if theta_listed else [thetas]
     phi_listed = "phi_i_deg" in table
     phis = table["phi_i_deg"] if phi_listed else [_one_value(incidence, "phi_i_deg") or 0.0]
-    point_keys = tuple(k for k in table if k not in INCIDENCE_AXES)
-    n_grid = math.prod(len(table[k]) for k in point_keys) * len(thetas) * len(phis)
+    n_grid = math.prod(len(a) for a in swept) * len(thetas) * len(phis)
     if n_grid > MAX_GRID_POINTS:
-        sizes = " x ".join(str(len(v)) for v in [*(table[k] for k in point_keys), thetas, phis])
+        sizes = " x ".join(str(n) for n in [*(len(a) for a in swept), len(thetas), len(phis)])
         _fail("sweep", f"{sizes} grid", f"{n_grid:,} grid positions; at most {MAX_GRID_POINTS:,} per sweep file")
     _check_directions("incidence.paths", "paths", [paths], None, paths, indexed=False)
     _check_directions("sweep.phi_i_deg" if phi_listed else "incidence.phi_i_deg", "phi_i_deg", phis, None, paths,
                       indexed=phi_listed)
-    _check_directions(theta_field, "theta_i_deg", thetas, phis[0], paths, indexed=theta_listed)
+    _check_directions(thetasetter_field, "theta_i_deg", thetas, phis[0], paths, indexed=theta_listed)
     directions = {"theta_i_deg": [t for t in thetas for _ in phis], "phi_i_deg": [p for _ in thetas for p in phis],
                   "paths": paths}
     points, digest, base_cfg = [], hashlib.sha256(), None
-    for index in itertools.product(*(range(len(table[k])) for k in point_keys)):
-        values = {k: table[k][i] for k, i in zip(point_keys, index)}
+    for index in itertools.product(*(range(len(a)) for a in swept)):
+        values = {key: value for a, i in zip(swept, index) for key, value in a.values_at(i).items()}
         try:
             cfg = config_mod.validate({**base, "material": {**material, **values},
                                        "incidence": {**incidence, **directions}},
                                       source=source, base_dir=base_dir)
         except ConfigError as exc:
-            raise _at_point(str(exc), point_keys, index, values) from None
+            raise _at_point(str(exc), swept, index) from None
         base_cfg = base_cfg or cfg  # the sweep's seed and output: the base's, the same at every point
         cfg = dataclasses.replace(cfg, seed=point_seed(cfg.seed, cfg.material), output=None)
         defining = {k: v for k, v in cfg.to_dict().items() if k not in ("output", "source")}
         digest.update(json.dumps(defining, sort_keys=True, default=str).encode())
         points.append(Point(index=index, config=cfg))
-    for key in point_keys:
-        _check_distinct(f"sweep.{key}", table[key])
-    _check_distinct(theta_field, thetas)
+    for axis in swept:
+        _check_distinct(setter_field(axis, axis.label_key or axis.name), list(axis.labels))
+    _check_distinct(thetasetter_field, thetas)
     if "phi_i_deg" in table:
         _check_distinct("sweep.phi_i_deg", phis)
-    grid = list(table) + ([] if "theta_i_deg" in table else ["theta_i_deg"])
+    by_name = {a.name: a for a in paired}
     values_of = {**table, "theta_i_deg": thetas, "phi_i_deg": phis}
-    axes = tuple(_axis(k, values_of[k]) for k in grid)
-    axis_spec = [[a.name, list(a.values)] for a in axes]
+    axes = tuple(paired_grid_axis(by_name[k], material) if k in by_name else grid_axis(k, values_of[k], material)
+                 for k in grid_names(written, paired))
+    # a paired axis adds what it sets; the plain axes keep the form older files were hashed with
+    axis_spec = [[a.name, list(a.values)] + ([{key: list(v) for key, v, *_ in a.paired}] if a.paired else [])
+                 for a in axes]
     digest.update(json.dumps({"axes": axis_spec, "seed": base_cfg.seed}, sort_keys=True, default=str).encode())
-    spec = {"base": {k: v for k, v in base.items() if k != "output"}, "sweep": table, "axes": axis_spec}
+    spec = {"base": {k: v for k, v in base.items() if k != "output"}, "sweep": written, "axes": axis_spec}
     scalars = {} if "phi_i_deg" in table else {"phi_i_deg": float(phis[0])}
-    return Sweep(axes=axes, point_axes=point_keys, points=tuple(points), seed=base_cfg.seed,
+    return Sweep(axes=axes, point_axes=tuple(a.name for a in swept), points=tuple(points), seed=base_cfg.seed,
                  digest=digest.hexdigest(), spec=spec, source=source, output=base_cfg.output,
                  n_phi=len(phis), scalars=scalars)
 
 
-def _at_point(message: str, point_keys, index, values) -> SweepError:
-    """A point's config error, naming the ``[sweep]`` entry it came from."""
+def _at_point(message: str, swept: tuple[PointAxis, ...], index) -> SweepError:
+    """A point's config error, naming the ``[sweep]`` list it came from."""
     name = message.split(" ", 1)[0]
-    for key, i in zip(point_keys, index):
-        if name == f"material.{key}":
-            return SweepError(f"sweep.{key}[{i}]" + message[len(name):])
-    if point_keys and any(index):
-        where = ", ".join(f"sweep.{k}[{i}] = {values[k]!r}" for k, i in zip(point_keys, index))
+    for axis, i in zip(swept, index):
+        for key in axis.keys:
+            if name == f"material.{key}":
+                return SweepError(f"{setter_field(axis, key)}[{i}]" + message[len(name):])
+    if swept and any(index):
+        where = ", ".join(f"{setter_field(a, a.label_key or a.name)}[{i}] = {a.labels[i]!r}"
+                          for a, i in zip(swept, index))
         return SweepError(f"{message} (at the sweep point {where})")
     return SweepError(message)
 
