@@ -109,6 +109,23 @@ def test_dielectric_absorbs_and_orders_fall():
     assert per_order[0] > per_order[1] > per_order[2] > 0.0
 
 
+@pytest.mark.parametrize("theta_i", [0.0, 70.0])
+def test_a_conductor_keeps_less_than_a_mirror_in_every_order(theta_i):
+    """Gold (450.9 nm) against mirror facets on the same grooves: every order's albedo is
+    lower (each hit keeps F < 1 of the light), what is lost is absorbed, and a conductor
+    of huge k (F -> 1) is the mirror again."""
+    inc, sensor = incident_vector(np.radians(theta_i), 0.0), EqualAreaSensor(5)
+    shape = {"distribution": "ggx", "alpha": 0.6}
+    mirror = specular_orders(material(**shape, facet="mirror"), inc, sensor, 3, 10_000, tolerance=1e-3)
+    gold = specular_orders(material(**shape, facet="conductor", eta=1.38, k=1.914), inc, sensor, 3, 10_000,
+                           tolerance=1e-3)
+    shiny = specular_orders(material(**shape, facet="conductor", eta=1.0, k=1e6), inc, sensor, 3, 10_000,
+                            tolerance=1e-3)
+    assert np.all(gold.integrals.sum(axis=1) < mirror.integrals.sum(axis=1))
+    assert 0.3 < gold.absorbed < 0.9 and abs(gold.exited + gold.truncated + gold.absorbed - 1.0) < 1e-12
+    np.testing.assert_allclose(shiny.integrals, mirror.integrals, rtol=0, atol=1e-5)
+
+
 def test_refuses_facets_with_a_body():
     with pytest.raises(ModelNotApplicable, match="specular facets"):
         specular_orders(material(distribution="beckmann", alpha=0.5, kd=0.5, eta=1.5), incident_vector(0.0, 0.0),

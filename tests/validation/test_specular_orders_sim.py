@@ -2,10 +2,10 @@
 sec. 12-13): tables of 1e8 paths a direction, simulated by the analog kernel, tested with
 ``vcavity.compare.compare_order`` (Pearson chi-square over cells + albedo z-test of each
 order: f1, f2, f3, f_inf) against the deterministic model, which shares no code with the
-walk but the distribution's sampler. Each configuration and order is one test at family
-level 1e-3 (Sidak over its directions and two statistics); with 7 configurations x 4
-orders the file raises a false alarm with probability about 2.8e-2 (fixed seeds: the
-outcome of a given tree is deterministic)."""
+walk but the distribution's sampler and the facet's reflectance. Each configuration and
+order is one test at family level 1e-3 (Sidak over its directions and two statistics);
+with 31 such tests (8 configurations x 4 orders, one untestable) the file raises a
+false alarm with probability about 3.1e-2 (fixed seeds: the outcome of a given tree is deterministic)."""
 
 import pytest
 
@@ -31,6 +31,9 @@ CONFIGS = {
     "dielectric-2.5": ({"distribution": "ggx", "alpha": 0.4, "facet": "interfaced_lambertian", "kd": 0.0,
                         "eta": 2.5}, [0.0, 70.0], 0.0),
     "ggx-1.0-mirror-deep": ({"distribution": "ggx", "alpha": 1.0, "facet": "mirror"}, [20.0, 75.0], 0.0),
+    # gold at 450.9 nm (Johnson & Christy 1972), where F varies most with the angle
+    "gold-conductor": ({"distribution": "ggx", "alpha": 0.5, "facet": "conductor", "eta": 1.38, "k": 1.914},
+                       [20.0, 75.0], 0.0),
 }
 
 
@@ -53,8 +56,14 @@ def tables(tmp_path_factory):
     return table
 
 
-@pytest.mark.parametrize("order", [1, 2, 3, 0], ids=["f1", "f2", "f3", "f_inf"])
-@pytest.mark.parametrize("name", list(CONFIGS))
+#: A smooth mirror has next to no third order (Beckmann 0.3: 0.4 of 1e8 paths expected):
+#: its f3 is untestable there (a chi-square of one category), the other orders are tested.
+UNTESTABLE = {("beckmann-0.3-mirror", 3)}
+CASES = [pytest.param(name, order, id=f"{name}-{'f_inf' if order == 0 else f'f{order}'}")
+         for name in CONFIGS for order in (1, 2, 3, 0) if (name, order) not in UNTESTABLE]
+
+
+@pytest.mark.parametrize("name, order", CASES)
 def test_every_order_of_the_walk_is_the_model(tables, name, order):
     report = compare_order(tables(name), order, significance=1e-3)
     assert report.passed, format_order_report(report)
