@@ -65,6 +65,8 @@ SPLIT_RIGHT = 2  # the right-first entries have two bounce counts
 VERTEX_INSIDE = 4  # the line through the vertex enters through the opening (both sides lit)
 
 _TWO_PI = 2.0 * math.pi
+#: A survival below this is 0 (:func:`_survival`): 1e-30 of a path, far below any table's noise.
+NEGLIGIBLE_SURVIVAL = 1e-30
 
 
 @njit(cache=True, inline="always")
@@ -101,15 +103,20 @@ def _rim_wedge(a_k, phi_d, theta, beta):
 
 @njit(cache=True)
 def _survival(n, s, phi_d, theta, beta, facet_kind, facet_data, unit_reflectance, max_bounces):
-    """Product of ``F(s |sin(φ_d - a_b)|)`` over the first ``min(n, max_bounces)`` spokes."""
+    """Product of ``F(s |sin(φ_d - a_b)|)`` over the first ``min(n, max_bounces)`` spokes.
+
+    A product below :data:`NEGLIGIBLE_SURVIVAL` is returned as 0: what is left of such a
+    path is below any table's resolution, and deep grooves (thousands of hits) would
+    otherwise cost a reflectance per hit.
+    """
     if unit_reflectance:
         return 1.0
     product = 1.0
     for b in range(1, min(n, max_bounces) + 1):
         cos_hit = s * abs(math.sin(phi_d - (theta + b * beta)))
         product *= facets.reflectance(facet_kind, min(cos_hit, 1.0), facet_data)
-        if product == 0.0:
-            break
+        if product < NEGLIGIBLE_SURVIVAL:
+            return 0.0
     return product
 
 
