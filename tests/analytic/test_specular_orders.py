@@ -29,7 +29,7 @@ def test_tau_weights_are_the_hat_moments_of_the_sampler_measure():
     rule of each integral; all weights sum to 1."""
     edges = tau_nodes(16)
     assert edges[0] == 0.0 and edges[-1] == 1.0 and np.all(np.diff(edges) > 0.0)
-    assert edges.size > 17 and edges[-2] > 1.0 - 1e-12  # the halved tail
+    assert edges.size > 17 and 5e-7 <= 1.0 - edges[-2] <= 1e-6  # the halved tail, to TAIL_END
     lo, hi = tau_weights(edges)
     assert abs(lo.sum() + hi.sum() - 1.0) < 1e-14
     for k in range(edges.size - 1):
@@ -136,8 +136,8 @@ def test_refuses_facets_with_a_body():
 
 @pytest.mark.parametrize("raw, theta_i, phi_i", [
     ({"distribution": "ggx", "alpha": 0.5, "facet": "mirror"}, 55.0, 0.0),
-    ({"distribution": "beckmann", "alpha_x": 0.7, "alpha_y": 0.25, "facet": "interfaced_lambertian", "kd": 0.0,
-      "eta": 2.5}, 30.0, 60.0),
+    pytest.param({"distribution": "beckmann", "alpha_x": 0.7, "alpha_y": 0.25, "facet": "interfaced_lambertian",
+                  "kd": 0.0, "eta": 2.5}, 30.0, 60.0, marks=pytest.mark.slow),
 ])
 def test_f1_is_the_single_bounce_v_cavity_model(raw, theta_i, phi_i):
     """Order 1 per cell equals the single-bounce V-cavity model's cell integrals (W eq. 20 with

@@ -65,8 +65,9 @@ SPLIT_RIGHT = 2  # the right-first entries have two bounce counts
 VERTEX_INSIDE = 4  # the line through the vertex enters through the opening (both sides lit)
 
 _TWO_PI = 2.0 * math.pi
-#: A survival below this is 0 (:func:`_survival`): 1e-30 of a path, far below any table's noise.
-NEGLIGIBLE_SURVIVAL = 1e-30
+#: A survival below this is 0 (:func:`_survival`): 1e-12 of a path, below the noise of any
+#: table (a 1e9-path table resolves 1e-9); all such paths together are at most 1e-12 of the light.
+NEGLIGIBLE_SURVIVAL = 1e-12
 
 
 @njit(cache=True, inline="always")

@@ -57,8 +57,11 @@ MAX_QUADS = 4096
 #: Fixed number of accumulation chunks (sums in a fixed order: the result does not depend
 #: on the thread count).
 N_CHUNKS = 64
-#: Halving steps of the mesh toward ``τ = 1`` (:func:`tau_nodes`).
-TAIL_LEVELS = 40
+#: The mesh's steps halve toward ``τ = 1`` until ``1 - τ`` is this small (:func:`tau_nodes`):
+#: the last interval then holds ``~ (π²/4) TAIL_END²`` (2.5e-12) of the grooves, whose
+#: vertex at ``τ = 1`` is often beyond the cap (finer would cost conductors a reflectance per
+#: hit of thousands of hits, for nothing a table resolves).
+TAIL_END = 1e-6
 #: Largest ``u1`` (the sampler's deepest groove the quadrature reaches).
 _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
@@ -102,16 +105,17 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, un
 
 def tau_nodes(n_quads):
     """The τ vertices of an ``n_quads``-quad mesh: equal steps ``h = 1/n_quads`` up to
-    ``1 - h``, then :data:`TAIL_LEVELS` steps halving toward 1 (``1 - h 2^-k``), then 1.
+    ``1 - h``, then steps halving toward 1 (``1 - h 2^-k`` down to :data:`TAIL_END`), then 1.
 
     Near ``τ = 1`` the sampler's deepest grooves (``tan θ_m`` growing like ``log`` or like
     ``1/(1 - τ)``) move the exit directions and bounce counts ever faster; halving steps
     keep each row's image small, and leave the vertex at ``τ = 1`` (the deepest groove,
-    often beyond the bounce cap) a weight of ``~ (h 2^-TAIL_LEVELS)²`` instead of ``~ h²``.
+    often beyond the bounce cap) a weight of ``~ TAIL_END²`` instead of ``~ h²``.
     """
     h = 1.0 / n_quads
     steps = np.arange(n_quads) * h
-    tail = 1.0 - h * 0.5 ** np.arange(1, TAIL_LEVELS + 1)
+    levels = max(int(math.ceil(math.log2(h / TAIL_END))), 1)
+    tail = 1.0 - h * 0.5 ** np.arange(1, levels + 1)
     return np.concatenate([steps, tail[tail > steps[-1]], [1.0]])
 
 
