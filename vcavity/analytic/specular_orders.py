@@ -345,6 +345,15 @@ class SpecularOrders:
         """Share of the paths absorbed by the facets (``1 - exited - truncated``)."""
         return max(0.0, 1.0 - self.exited - self.truncated)
 
+    def order(self, k: int, beyond: bool = True) -> tuple[np.ndarray, np.ndarray]:
+        """Cell integrals and error estimates of order ``k`` (0: f_inf, the sum of the rows;
+        ``beyond = False`` leaves out the orders beyond ``max_order``, as a walk without
+        ``track_all_orders`` stops those paths)."""
+        if k >= 1:
+            return self.integrals[k - 1], self.error[k - 1]
+        rows = slice(None) if beyond else slice(0, self.max_order)
+        return self.integrals[rows].sum(axis=0), self.error[rows].sum(axis=0)
+
 
 def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_quads):
     """Cell integrals ``[(order, cell) ..., truncated]`` on one ``n_quads x n_quads`` mesh."""
@@ -406,12 +415,14 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     shape = (int(max_order) + 1, sensor.resolution ** 2)
     measured = np.zeros(shape[0], bool)
     measured[slice(None) if rows is None else list(rows)] = True
+    def part(a):  # the measured rows' sum
+        return a[:-1].reshape(shape)[measured].sum()
+
     n = max(int(start_quads), 2)
     coarse = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n // 2)
     while True:
         fine = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n)
         change = np.abs(fine - coarse)
-        part = (lambda a: a[:-1].reshape(shape)[measured].sum())
         if part(change) <= tolerance * part(fine) or 2 * n > max_quads:
             break
         coarse, n = fine, 2 * n

@@ -107,14 +107,6 @@ def _check_applicable(table, material, order: int) -> None:
                                  f"(estimator {table.estimator}): there is nothing simulated to test")
 
 
-def _expected(model, order: int, track_all_orders: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Model cell probabilities of ``order`` and their error estimates."""
-    if order >= 1:
-        return model.integrals[order - 1], model.error[order - 1]
-    rows = slice(None) if track_all_orders else slice(0, model.max_order)
-    return model.integrals[rows].sum(axis=0), model.error[rows].sum(axis=0)
-
-
 def compare_order(table, order: int, significance: float = 0.01, tolerance: float | None = None) -> OrdersReport:
     """Test order ``order`` (0: f_inf) of every direction of ``table`` against the model.
 
@@ -149,12 +141,12 @@ def compare_order(table, order: int, significance: float = 0.01, tolerance: floa
         rows = [order - 1] if order >= 1 else list(range(max_order + (1 if track_all else 0)))
         model = specular_orders(material, incident, table.sensor, max_order, max_bounces, rows=rows,
                                 tolerance=DEFAULT_TOLERANCE if tolerance is None else tolerance)
-        p, err = _expected(model, order, track_all)
+        p, err = model.order(order, beyond=track_all)
         noise = float(binomial_mean_abs_deviation(paths, p).sum() / max(paths * p.sum(), 1e-300))
         if tolerance is None and err.sum() > MODEL_TO_NOISE * noise * p.sum():
             model = specular_orders(material, incident, table.sensor, max_order, max_bounces, rows=rows,
                                     tolerance=MODEL_TO_NOISE * noise)
-            p, err = _expected(model, order, track_all)
+            p, err = model.order(order, beyond=track_all)
         albedo = float(p.sum())
         scale = min(1.0, (1.0 - ALBEDO_GAP) / albedo) if albedo > 0.0 else 1.0
         expected = paths * p * scale

@@ -82,13 +82,9 @@ class ExactModels:
         lost = np.zeros((n_i, 3))
         error = np.full(n_i, np.nan)
         for j, model in enumerate(self.models):
-            kept = slice(None) if track else slice(0, model.max_order)
             for position, k in enumerate(orders):
-                rows = kept if k == 0 else k - 1
-                brdf[j, position] = np.sum(model.integrals[rows], axis=0) / area if k == 0 else \
-                    model.integrals[rows] / area
-                stderr[j, position] = np.sum(model.error[rows], axis=0) / area if k == 0 else \
-                    model.error[rows] / area
+                values, errors = model.order(k, beyond=track)
+                brdf[j, position], stderr[j, position] = values / area, errors / area
             beyond = 0.0 if track else float(model.integrals[model.max_order].sum())
             lost[j] = (model.absorbed, model.truncated + beyond, 0.0)
             if 0 in orders:
