@@ -24,6 +24,7 @@ take (from its last point, error ~ time^-1/2).
     python scripts/bench_error_vs_time.py --plot error_vs_time.png       # ~10 min, 2 cores
     python scripts/bench_error_vs_time.py --quick
     python scripts/bench_error_vs_time.py --specular                     # ~3 min
+    python scripts/bench_error_vs_time.py --specular --model-only        # the model alone, ~30 s
 """
 
 from __future__ import annotations
@@ -82,7 +83,14 @@ def main(argv=None) -> int:
     parser.add_argument("--specular", action="store_true",
                         help="only the specular section: exact against analog on whole tables of a mirror and a "
                         "conductor (theta_i 0, 30, 60, 85 deg)")
+    parser.add_argument("--model-only", action="store_true",
+                        help="with --specular: only the every-order model (no simulation), per direction: its mesh, "
+                        "seconds and error estimate at tolerances 3e-3 and 1e-3; runs against any tree on "
+                        "PYTHONPATH that has vcavity.analytic.specular_orders (an A/B of the model)")
     args = parser.parse_args(argv)
+    if args.specular and args.model_only:
+        specular_model(args)
+        return 0
     if args.specular:
         specular(args)
         return 0
@@ -232,6 +240,39 @@ def specular(args) -> dict:
                   f"{analog_time / seconds:.3g}x the efficiency")
         curves[name] = (np.array(rows_exact), np.array(rows_analog))
     return curves
+
+
+def specular_model(args) -> dict:
+    """Seconds of :func:`specular_orders` alone for each table of ``SPECULAR`` (first use
+    compiled outside the timing); returns ``{(material, tolerance): seconds}``."""
+    import vcavity
+    from vcavity.analytic.specular_orders import specular_orders
+    from vcavity.facet import registry as facets
+    from vcavity.sensor.directions import incident_vector
+    from vcavity.sensor.grid import EqualAreaSensor
+
+    print(f"the every-order model of {vcavity.__file__}, theta_i {SPECULAR_THETA_DEG} deg, N = 57, max_order 3")
+    sensor = EqualAreaSensor(57)
+    totals = {}
+    for name, material in SPECULAR.items():
+        if material["facet"] not in facets.NAMES:
+            continue
+        cfg = _specular_config(material, "exact")
+        bounces = cfg.effective_max_bounces
+        specular_orders(cfg.material, incident_vector(0.3, 0.0), sensor, 3, bounces, tolerance=1.0, start_quads=4)
+        for tol in (3e-3, 1e-3):
+            total = 0.0
+            for theta in SPECULAR_THETA_DEG:
+                start = time.perf_counter()
+                model = specular_orders(cfg.material, incident_vector(math.radians(theta), 0.0), sensor, 3, bounces,
+                                        tolerance=tol)
+                seconds = time.perf_counter() - start
+                total += seconds
+                print(f"{name}, tol {tol:.0e}, theta_i {theta:4.0f}: M {model.quads:5d}, {seconds:6.2f} s, "
+                      f"estimate {model.error.sum() / model.exited:.2e}")
+            print(f"{name}, tol {tol:.0e}: total {total:.2f} s")
+            totals[name, tol] = total
+    return totals
 
 
 if __name__ == "__main__":

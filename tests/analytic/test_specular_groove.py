@@ -10,24 +10,32 @@ import numpy as np
 import pytest
 from numba import njit
 
-from tests.reference import materials as ref
+from tests.reference import conductor_fresnel as ref_conductor, materials as ref
 from tests.reference.groove_paths import trace_steps
 from vcavity.analytic import specular_groove as sg
-from vcavity.facet import interfaced_lambertian, registry as facets
+from vcavity.facet import conductor, interfaced_lambertian, registry as facets
 
 MIRROR = facets.kind_of("mirror")
 IL = facets.kind_of("interfaced_lambertian")
+CONDUCTOR = facets.kind_of("conductor")
 
 
 @njit(cache=True)
-def _outcomes(tan_m, dx, dz, kind, data, unit, max_bounces):
+def _outcomes_with(tan_m, dx, dz, kind, data, log_table, unit, max_bounces):
     out = np.empty((tan_m.shape[0], sg.N_SLOTS, sg.N_FIELDS))
     regime = np.empty(tan_m.shape[0], np.int64)
     buf = np.empty((sg.N_SLOTS, sg.N_FIELDS))
     for i in range(tan_m.shape[0]):
-        regime[i] = sg.groove_outcomes(buf, tan_m[i], dx[i], dz[i], kind, data, unit, max_bounces)
+        regime[i] = sg.groove_outcomes(buf, tan_m[i], dx[i], dz[i], kind, data, log_table, unit, max_bounces)
         out[i] = buf
     return out, regime
+
+
+def _outcomes(tan_m, dx, dz, kind, data, unit, max_bounces, exact_reflectance=False):
+    """Outcomes with the facet's log-F table as the model uses it (``exact_reflectance``:
+    without the table, F evaluated at every hit)."""
+    table = np.empty(0) if unit or exact_reflectance else sg.log_reflectance_table(kind, data)
+    return _outcomes_with(tan_m, dx, dz, kind, data, table, unit, max_bounces)
 
 
 def _pairs(n, seed, theta_max=1.55):
@@ -129,6 +137,26 @@ def test_survival_is_the_product_of_the_fresnel_factors():
     assert np.all(first_two)
     deeper = out[:, :, sg.BOUNCES] > 2
     assert np.all(capped[:, :, sg.SURVIVAL][deeper] >= out[:, :, sg.SURVIVAL][deeper])
+
+
+@pytest.mark.parametrize("eta, k, tabled", [(0.43, 2.455, True), (1e-3, 1e-3, False)])
+def test_conductor_survival_in_deep_grooves(eta, k, tabled):
+    """Conductor facets in grooves of up to ~400 hits: each slot's survival is the product
+    of the reference conductor Fresnel factors at the traced hits, to 1e-9 relative, whether
+    the model reads ``log F`` from its table (gold) or, where no table is accurate enough
+    (eta = k = 1e-3: F falls steeply at grazing), evaluates F at every hit."""
+    theta_m, d = _pairs(4_000, seed=21, theta_max=1.565)
+    data = conductor.prepare({"eta": eta, "k": k})
+    assert (sg.log_reflectance_table(CONDUCTOR, data).size > 0) == tabled
+    out, _ = _outcomes(np.tan(theta_m), d[:, 0], d[:, 2], CONDUCTOR, data, False, 10 ** 6)
+    x0 = np.random.default_rng(4).uniform(-1.0, 1.0, (theta_m.size, 2))
+    k_traced, _, _, w = _traced(theta_m, d, x0, lambda c: ref_conductor.fresnel_conductor(c, eta, k))
+    mine = out[np.arange(theta_m.size)[:, None], _slot_of(theta_m, d, x0, k_traced)][..., sg.SURVIVAL]
+    expected = np.where(w < sg.NEGLIGIBLE_SURVIVAL, 0.0, w)
+    # a survival within rounding of the 1e-12 cut may land on either side of it
+    near_cut = np.abs(w / sg.NEGLIGIBLE_SURVIVAL - 1.0) < 1e-6
+    assert np.allclose(mine[~near_cut], expected[~near_cut], rtol=1e-9, atol=1e-300)
+    assert k_traced.max() >= 100 and np.any((w > 1e-6) & (k_traced >= 30))
 
 
 @pytest.mark.parametrize("theta_m", [0.2, 0.8, 1.3])

@@ -12,6 +12,7 @@ from tests.reference import groove_paths as G
 from tests.reference import materials as M
 from vcavity.analytic.exact_f1 import f1_cell_integrals
 from vcavity.analytic.single_bounce import ModelNotApplicable
+from vcavity.analytic import specular_orders as so
 from vcavity.analytic.specular_orders import is_specular, specular_orders, splat_triangle, tau_nodes, tau_weights
 from vcavity.config import validate
 from vcavity.sensor.directions import incident_vector
@@ -60,11 +61,13 @@ def _triangle_reference(corners, masses, resolution, steps=300):
     return out / out.sum()
 
 
-def test_an_image_triangle_is_split_over_cells_by_its_linear_density():
+@pytest.mark.parametrize("kept", [64, 1])
+def test_an_image_triangle_is_split_over_cells_by_its_linear_density(kept):
     """Random triangles over a few cells of a 6 x 6 grid with unequal corner values: the
-    shares of each cell against a fine barycentric-lattice reference (error ~1/steps)."""
+    shares of each cell against a fine barycentric-lattice reference (error ~1/steps),
+    with the cells' integrals kept between the passes (64) or computed twice (1)."""
     rng = np.random.default_rng(7)
-    work = [np.empty(12) for _ in range(4)]
+    work = [np.empty(12) for _ in range(4)] + [np.empty(kept)]
     for _ in range(20):
         corners = rng.uniform(0.3, 5.7, size=(3, 2))
         masses = rng.uniform(0.1, 3.0, size=3)
@@ -72,6 +75,23 @@ def test_an_image_triangle_is_split_over_cells_by_its_linear_density():
         splat_triangle(acc, 0, *corners.ravel(), *masses, 1.0, 6, *work)
         assert abs(acc.sum() - 1.0) < 1e-12
         np.testing.assert_allclose(acc, _triangle_reference(corners, masses, 6), rtol=0, atol=3e-3)
+
+
+def test_a_doubled_mesh_reuses_the_coarse_vertices_exactly():
+    """The doubling loop copies the coarse mesh's vertices into the fine one instead of
+    evaluating them again: the fine mesh's integrals are bit for bit those of the same mesh
+    computed from scratch (every copied vertex is the one it replaces)."""
+    mat = material(distribution="ggx", alpha_x=0.6, alpha_y=0.2, facet="conductor")
+    incident = incident_vector(np.radians(40.0), np.radians(30.0))
+    prepared = so._prepared(mat)
+    _, coarse = so._mesh(prepared, incident, 9, 3, 10_000, 32)
+    reused, fine = so._mesh(prepared, incident, 9, 3, 10_000, 64, coarse)
+    fresh, fresh_vertices = so._mesh(prepared, incident, 9, 3, 10_000, 64)
+    assert np.array_equal(reused, fresh)
+    for mine, theirs in zip(fine, fresh_vertices):
+        assert np.array_equal(mine, theirs)
+    # the coarse mesh's taus are among the fine one's (the reuse had something to reuse)
+    assert np.isin(coarse[0], fine[0]).all()
 
 
 @pytest.mark.parametrize("raw", [{"distribution": "beckmann", "alpha": 0.05}, {"distribution": "beckmann", "alpha": 0.6},

@@ -30,7 +30,8 @@ Error estimate: the mesh is doubled until the L1 change of every cell of every o
 summed, is within ``tolerance`` of what exits; each cell's estimate is its change at the
 last doubling (conservative for a second-order rule, where it is about three times the
 error of the finer mesh: tests/analytic/test_specular_orders.py holds it against a much
-finer mesh).
+finer mesh). Every vertex of a mesh is one of the doubled mesh's, which copies it instead of
+evaluating it again.
 """
 
 from __future__ import annotations
@@ -66,12 +67,18 @@ TAIL_END = 1e-6
 _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
 _MAX_POLYGON = 12  # a triangle clipped by four half-planes has at most 7 corners
+_MAX_PARTS = 64  # cells of a triangle's box whose integrals are kept between the two passes
 
 
 @njit(cache=True, parallel=True)
-def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, unit, max_bounces, resolution):
+def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, log_table, unit, max_bounces,
+              resolution, known_row, known_value, known_bounces, known_image):
     """Per vertex ``(τ, u2)`` and slot: value (fraction · survival), bounce count (-1: no
-    such outcome) and the exit direction as a point of the sensor square in cell units."""
+    such outcome) and the exit direction as a point of the sensor square in cell units.
+
+    The vertices of the mesh of half the quads are among these (``known_row[r]``: the row of
+    ``τ_r`` there, or -1; its ``u2`` nodes are every other one): they are copied from the
+    ``known_*`` arrays, not evaluated again."""
     n_tau, n_u2 = taus.size, u2s.size
     value = np.zeros((n_tau, n_u2, sg.N_SLOTS))
     bounces = np.full((n_tau, n_u2, sg.N_SLOTS), -1, np.int64)
@@ -83,11 +90,16 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, un
         s = math.sin(_HALF_PI * taus[r])
         u1 = min(s * s, _U1_MAX)
         for q in range(n_u2):
+            if known_row[r] >= 0 and q % 2 == 0:
+                value[r, q] = known_value[known_row[r], q // 2]
+                bounces[r, q] = known_bounces[known_row[r], q // 2]
+                image[r, q] = known_image[known_row[r], q // 2]
+                continue
             tan_m, cos_phi, sin_phi = distributions.sample(dist_kind, u1, u2s[q], params)
             # d = -i in the groove frame x' = (cos φ, sin φ, 0), y' = (-sin φ, cos φ, 0) (sec. 5)
             dx = -(ix * cos_phi + iy * sin_phi)
             dy = -(iy * cos_phi - ix * sin_phi)
-            sg.groove_outcomes(buf, tan_m, dx, -iz, facet_kind, facet_data, unit, max_bounces)
+            sg.groove_outcomes(buf, tan_m, dx, -iz, facet_kind, facet_data, log_table, unit, max_bounces)
             for slot in range(sg.N_SLOTS):
                 fraction = buf[slot, sg.FRACTION]
                 if not fraction > 0.0:
@@ -167,9 +179,13 @@ def _clip(px, py, n, qx, qy, axis, bound, keep_above):
 
 
 @njit(cache=True)
-def splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, m0, m1, m2, mass, resolution, px, py, qx, qy):
+def splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, m0, m1, m2, mass, resolution, px, py, qx, qy, parts):
     """Add ``mass`` to the cells under the image triangle, each cell's share the integral of
-    the linear density with corner values ``m0, m1, m2`` over the triangle's part in it."""
+    the linear density with corner values ``m0, m1, m2`` over the triangle's part in it.
+
+    ``px, py, qx, qy`` are work arrays of :data:`_MAX_POLYGON` entries; ``parts`` keeps the
+    cells' integrals between the two passes (when the triangle's box of cells fits in it;
+    otherwise they are computed twice)."""
     lo_x = min(max(int(math.floor(min(x0, x1, x2))), 0), resolution - 1)
     hi_x = min(max(int(math.floor(max(x0, x1, x2))), 0), resolution - 1)
     lo_y = min(max(int(math.floor(min(y0, y1, y2))), 0), resolution - 1)
@@ -184,18 +200,26 @@ def splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, m0, m1, m2, mass, resoluti
         return
     # two passes: the shares of the clipped parts, then the mass in proportion to them
     # (normalised by their sum, so that a thin triangle's rounding cannot lose mass)
+    n_x = hi_x - lo_x + 1
+    stored = n_x * (hi_y - lo_y + 1) <= parts.size
     shares = 0.0
-    for sweep in range(2):
-        for cy in range(lo_y, hi_y + 1):
-            for cx in range(lo_x, hi_x + 1):
+    for cy in range(lo_y, hi_y + 1):
+        for cx in range(lo_x, hi_x + 1):
+            part = _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy)
+            if stored:
+                parts[(cy - lo_y) * n_x + cx - lo_x] = part
+            shares += part
+    if not shares > 0.0:  # rounding left nothing: the centroid's cell
+        acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
+        return
+    for cy in range(lo_y, hi_y + 1):
+        for cx in range(lo_x, hi_x + 1):
+            if stored:
+                part = parts[(cy - lo_y) * n_x + cx - lo_x]
+            else:
                 part = _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy)
-                if sweep == 0:
-                    shares += part
-                elif part > 0.0:
-                    acc[base + cy * resolution + cx] += mass * (part / shares)
-        if not shares > 0.0:  # rounding left nothing: the centroid's cell
-            acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
-            return
+            if part > 0.0:
+                acc[base + cy * resolution + cx] += mass * (part / shares)
 
 
 @njit(cache=True, inline="always")
@@ -229,7 +253,7 @@ def _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py,
 
 @njit(cache=True)
 def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bounces, resolution, px, py, qx, qy,
-          masses, counts):
+          parts, masses, counts):
     """Credit one slot's mass over the quad with lower-left vertex ``(r, q)``."""
     rr = (r, r + 1, r + 1, r)
     qq = (q, q, q + 1, q + 1)
@@ -265,9 +289,9 @@ def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bou
         t_b = masses[0] + masses[2] + masses[3]
         share = total / (t_a + t_b)
         splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, masses[0], masses[1], masses[2], t_a * share,
-                        resolution, px, py, qx, qy)
+                        resolution, px, py, qx, qy, parts)
         splat_triangle(acc, base, x0, y0, x2, y2, x3, y3, masses[0], masses[2], masses[3], t_b * share,
-                        resolution, px, py, qx, qy)
+                        resolution, px, py, qx, qy, parts)
         return
     # the bounce count changes inside the quad, where the slot's fraction vanishes: each
     # corner's mass goes to its own cell
@@ -294,6 +318,7 @@ def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, 
         py = np.empty(_MAX_POLYGON)
         qx = np.empty(_MAX_POLYGON)
         qy = np.empty(_MAX_POLYGON)
+        parts = np.empty(_MAX_PARTS)
         masses = np.empty(4)
         counts = np.empty(4, np.int64)
         acc = partial[chunk]
@@ -303,7 +328,7 @@ def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, 
             for q in range(n_u2):
                 for slot in range(sg.N_SLOTS):
                     _quad(acc, value, bounces, image, r, q, slot, wl, wh, max_order, max_bounces, resolution,
-                          px, py, qx, qy, masses, counts)
+                          px, py, qx, qy, parts, masses, counts)
     out = np.zeros(n_keys)
     for chunk in range(N_CHUNKS):
         out += partial[chunk]
@@ -355,19 +380,43 @@ class SpecularOrders:
         return self.integrals[rows].sum(axis=0), self.error[rows].sum(axis=0)
 
 
-def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_quads):
-    """Cell integrals ``[(order, cell) ..., truncated]`` on one ``n_quads x n_quads`` mesh."""
+def _prepared(material):
+    """What every mesh of ``material`` needs: the distribution's and the facet's kernel data,
+    the facet's ``log F`` table and whether its reflectance is 1."""
     kind, params = distributions.params_from(material.distribution, material.distribution_params)
     facet_kind, _, facet_data = facets.prepare(material.facet, material.facet_params)
+    unit = material.facet == "mirror"
+    log_table = np.empty(0) if unit else sg.log_reflectance_table(facet_kind, facet_data)
+    return kind, params, facet_kind, facet_data, log_table, unit
+
+
+def _mesh(prepared, incident, resolution, max_order, max_bounces, n_quads, known=None):
+    """Cell integrals of one mesh, and its vertices (``known``: those of the mesh of
+    ``n_quads / 2`` quads, reused)."""
+    kind, params, facet_kind, facet_data, log_table, unit = prepared
     n_quads = int(n_quads)
     taus = tau_nodes(n_quads)
     u2s = np.arange(n_quads + 1) / n_quads
+    known_row = np.full(taus.size, -1, np.int64)
+    if known is not None and 2 * (known[1].shape[1] - 1) == n_quads:
+        known_taus = known[0]
+        at = np.minimum(np.searchsorted(known_taus, taus), known_taus.size - 1)
+        known_row = np.where(known_taus[at] == taus, at, -1)
+    else:
+        empty = np.zeros((0, 0, sg.N_SLOTS))
+        known = (None, empty, empty.astype(np.int64), np.zeros((0, 0, sg.N_SLOTS, 2)))
     value, bounces, image = _vertices(taus, u2s, np.ascontiguousarray(incident, dtype=np.float64), kind,
-                                      params, facet_kind, facet_data, material.facet == "mirror",
-                                      int(max_bounces), int(resolution))
+                                      params, facet_kind, facet_data, log_table, unit, int(max_bounces),
+                                      int(resolution), known_row, *known[1:])
     w_lo, w_hi = tau_weights(taus)
-    return _accumulate(value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order), int(max_bounces),
-                       int(resolution))
+    integrals = _accumulate(value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order), int(max_bounces),
+                            int(resolution))
+    return integrals, (taus, value, bounces, image)
+
+
+def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_quads):
+    """Cell integrals ``[(order, cell) ..., truncated]`` on one ``n_quads x n_quads`` mesh."""
+    return _mesh(_prepared(material), incident, resolution, max_order, max_bounces, n_quads)[0]
 
 
 def specular_orders(material, incident, sensor, max_order, max_bounces, *, tolerance=DEFAULT_TOLERANCE,
@@ -418,10 +467,11 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     def part(a):  # the measured rows' sum
         return a[:-1].reshape(shape)[measured].sum()
 
+    prepared = _prepared(material)
     n = max(int(start_quads), 2)
-    coarse = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n // 2)
+    coarse, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n // 2)
     while True:
-        fine = mesh_integrals(material, incident, sensor.resolution, max_order, max_bounces, n)
+        fine, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n, known)
         change = np.abs(fine - coarse)
         if part(change) <= tolerance * part(fine) or 2 * n > max_quads:
             break
