@@ -201,3 +201,111 @@ def smith_lambda_walter_fit(vx, vy, vz, params):
     if a < 0.0 or a >= 1.6:
         return 0.0
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a)
+
+
+@njit(cache=True, inline="always")
+def _visible_slope_cdf(x, mu):
+    """``C(x) = ∫_-inf^x (mu - t) exp(-t^2)/sqrt(pi) dt`` for ``x <= mu`` (physics.md sec. 14)."""
+    return 0.5 * mu * math.erfc(-x) + 0.5 * _INV_SQRT_PI * math.exp(-x * x)
+
+
+@njit(cache=True)
+def _visible_slope(u, mu):
+    """The slope ``x <= mu`` with ``C(x) = u C(mu)``: Newton on ``log C`` inside a bisection bracket.
+
+    ``C`` is increasing on ``(-inf, mu]`` (its derivative ``(mu - x) exp(-x^2)/sqrt(pi)``)
+    and log-concave, so Newton on ``log C`` from the bracket's side converges in a few steps;
+    a step leaving the bracket is replaced by its midpoint. Exact to rounding: the loop ends
+    when the bracket or the step is within 4 ulp of ``x``.
+    """
+    target = math.log(max(u, 1e-300)) + math.log(_visible_slope_cdf(mu, mu))
+    hi = mu
+    lo = min(mu, 0.0) - 1.0
+    while math.log(max(_visible_slope_cdf(lo, mu), 1e-320)) > target and lo > -40.0:
+        lo = 2.0 * lo - 1.0
+    x = 0.5 * (lo + hi)
+    for _ in range(100):
+        c = _visible_slope_cdf(x, mu)
+        h = math.log(max(c, 1e-320)) - target
+        if h > 0.0:
+            hi = x
+        else:
+            lo = x
+        step = h * c / ((mu - x) * _INV_SQRT_PI * math.exp(-x * x) + 1e-300)
+        new = x - step
+        if not lo < new < hi:
+            new = 0.5 * (lo + hi)
+        if abs(new - x) <= 4e-16 * (1.0 + abs(x)) or hi - lo <= 4e-16 * (1.0 + abs(x)):
+            return new
+        x = new
+    return x
+
+
+@njit(cache=True)
+def _normal_quantile(u):
+    """``t`` with ``(1 + erf t)/2 = u``: the slope of ``exp(-t^2)/sqrt(pi)`` at probability ``u``.
+
+    Newton on the log of the lower tail ``erfc(-t)/2`` of the smaller side (symmetric), from
+    ``-sqrt(-log 2p)``; exact to rounding for ``u`` in ``(0, 1)``.
+    """
+    p = min(u, 1.0 - u)
+    p = max(p, 1e-300)
+    target = math.log(2.0 * p)
+    t = -math.sqrt(-target) if target < 0.0 else 0.0
+    for _ in range(60):
+        tail = math.erfc(-t)
+        step = (math.log(tail) - target) * tail / (2.0 * _INV_SQRT_PI * math.exp(-t * t))
+        t -= step
+        if t > 0.0:
+            t = 0.0
+        if abs(step) <= 4e-16 * (1.0 + abs(t)):
+            break
+    return t if u <= 0.5 else -t
+
+
+@njit(cache=True)
+def sample_visible(vx, vy, vz, u1, u2, params):
+    """Sample ``m`` with the visible-normal density ``D_v(m) = <v, m>+ D(m) / (v.n (1 + Lambda(v)))``
+    (Heitz and d'Eon 2014, physics.md sec. 14).
+
+    In the stretched configuration (unit roughness, view ``v' = normalize(alpha_x vx,
+    alpha_y vy, vz)``) the slope along ``v'``'s azimuth has the density ``(mu - x)+
+    exp(-x^2)/sqrt(pi)`` up to a constant, ``mu = cot theta_v'``, sampled by inverting its
+    CDF (:func:`_visible_slope`); the slope across it is independent, ``exp(-y^2)/sqrt(pi)``
+    (:func:`_normal_quantile`). The slopes are rotated to ``v'``'s azimuth and stretched back.
+
+    Parameters
+    ----------
+    vx, vy, vz : float
+        Unit direction seen from (toward the light or the viewer), ``vz > 0``.
+    u1, u2 : float
+        Uniforms in ``[0, 1)``.
+    params : ndarray
+        ``[alpha_x, alpha_y]``.
+
+    Returns
+    -------
+    mx, my, mz : float
+        Unit normal, ``mz > 0``.
+    """
+    ax = params[0]
+    ay = params[1]
+    sx = ax * vx
+    sy = ay * vy
+    sin_v = math.sqrt(sx * sx + sy * sy)
+    if sin_v == 0.0:  # seen from the normal: every normal is visible in proportion to D(m)(m.n)
+        r = math.sqrt(-math.log1p(-min(u1, _ONE_MINUS_ULP)))
+        slope_x = r * math.cos(_TWO_PI * u2)
+        slope_y = r * math.sin(_TWO_PI * u2)
+    else:
+        mu = vz / sin_v  # cot of the stretched view
+        x = _visible_slope(u1, mu)
+        y = _normal_quantile(u2)
+        cos_v = sx / sin_v
+        sin_vphi = sy / sin_v
+        slope_x = cos_v * x - sin_vphi * y
+        slope_y = sin_vphi * x + cos_v * y
+    mx = -ax * slope_x
+    my = -ay * slope_y
+    norm = math.sqrt(mx * mx + my * my + 1.0)
+    return mx / norm, my / norm, 1.0 / norm

@@ -154,3 +154,61 @@ def smith_lambda(vx, vy, vz, params):
     if b > 1.0:
         return 0.5 * (math.sqrt(1.0 + b) - 1.0)  # also right for b = inf
     return 0.5 * b / (math.sqrt(1.0 + b) + 1.0)
+
+
+@njit(cache=True)
+def sample_visible(vx, vy, vz, u1, u2, params):
+    """Sample ``m`` with the visible-normal density ``D_v(m) = <v, m>+ D(m) / (v.n (1 + Lambda(v)))``
+    (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4); physics.md sec. 14).
+
+    GGX is the distribution of normals of an ellipsoid: stretched to unit roughness it is a
+    hemisphere, whose visible normals seen from ``v' = normalize(alpha_x vx, alpha_y vy, vz)``
+    are those under a uniform point of its projected outline: a disk whose far half is
+    squeezed by ``(1 + v'_z)/2``. The point is lifted onto the hemisphere and the normal
+    stretched back.
+
+    Parameters
+    ----------
+    vx, vy, vz : float
+        Unit direction seen from (toward the light or the viewer), ``vz > 0``.
+    u1, u2 : float
+        Uniforms in ``[0, 1)``.
+    params : ndarray
+        ``[alpha_x, alpha_y]``.
+
+    Returns
+    -------
+    mx, my, mz : float
+        Unit normal, ``mz >= 0``.
+    """
+    ax = params[0]
+    ay = params[1]
+    hx = ax * vx
+    hy = ay * vy
+    norm = math.sqrt(hx * hx + hy * hy + vz * vz)
+    hx, hy, hz = hx / norm, hy / norm, vz / norm
+    # an orthonormal frame (t1, t2, h) around the stretched view
+    lensq = hx * hx + hy * hy
+    if lensq > 0.0:
+        inv = 1.0 / math.sqrt(lensq)
+        t1x, t1y = -hy * inv, hx * inv
+    else:
+        t1x, t1y = 1.0, 0.0
+    t2x, t2y, t2z = -hz * t1y, hz * t1x, hx * t1y - hy * t1x
+    # a uniform point of the unit disk, its half beyond t1 squeezed onto the projection
+    r = math.sqrt(u1)
+    phi = _TWO_PI * u2
+    p1 = r * math.cos(phi)
+    p2 = r * math.sin(phi)
+    s = 0.5 * (1.0 + hz)
+    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1x + p2 * t2x + p3 * hx
+    ny = p1 * t1y + p2 * t2y + p3 * hy
+    nz = p2 * t2z + p3 * hz
+    # back to the distribution's roughness (normals transform with the inverse stretch)
+    mx = ax * nx
+    my = ay * ny
+    mz = max(0.0, nz)
+    norm = math.sqrt(mx * mx + my * my + mz * mz)
+    return mx / norm, my / norm, mz / norm
