@@ -3,11 +3,11 @@ against their density, by chi-square.
 
 The density of the normals seen from ``v`` is ``<v, m>+ D(m)`` up to a constant. The test
 bins 4e5 samples per case on a grid of ``(θ_m, φ_m)`` cells (the θ edges stretched by the
-roughness so that every cell holds paths) and compares them with the cell integrals of
+roughness so that every cell holds paths), from directions above and below the horizon, and compares them with the cell integrals of
 ``<v, m>+ D(m)`` by 12 x 12-point Gauss-Legendre per cell, with D from
 tests/reference/materials.ndf (plain NumPy, independent of the package), normalised by
 their sum. Cells expecting fewer than 10 samples are pooled into one. Each case fails at
-p < 1e-4 (false-positive rate 1e-4 per case, 7e-4 for the file; fixed seeds make the
+p < 1e-4 (false-positive rate 1e-4 per case, 1.1e-3 for the file; fixed seeds make the
 outcome deterministic).
 """
 
@@ -66,6 +66,12 @@ CASES = [
     ("beckmann", {"alpha_x": 0.6, "alpha_y": 0.2}, 80.0, 90.0),
     ("beckmann", {"alpha_x": 0.2, "alpha_y": 0.5}, 60.0, 37.0),
     ("beckmann", {"alpha": 0.7}, 0.0, 0.0),
+    # seen from below the horizon (a ray travelling up meets the facets facing it): the
+    # Smith walk's later hits
+    ("ggx", {"alpha_x": 0.8, "alpha_y": 0.4}, 120.0, 37.0),
+    ("ggx", {"alpha": 1.2}, 100.0, 0.0),
+    ("beckmann", {"alpha_x": 0.8, "alpha_y": 0.4}, 120.0, 37.0),
+    ("beckmann", {"alpha": 1.2}, 100.0, 0.0),
 ]
 
 
@@ -92,5 +98,5 @@ def test_visible_normals_follow_their_density(name, roughness, theta_deg, phi_de
         obs, exp = obs[:-1], exp[:-1]
     chi2 = float(np.sum((obs - exp) ** 2 / np.where(exp > 0, exp, 1.0)))
     dof = obs.size - 1
-    assert big.sum() > 100  # the grid resolves the lobe
+    assert big.sum() > 30  # the grid resolves the lobe (from below, only steep normals are seen)
     assert stats.chi2.sf(chi2, dof) > 1e-4, f"chi2 {chi2:.1f} on {dof} dof"

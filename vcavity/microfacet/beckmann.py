@@ -277,7 +277,9 @@ def sample_visible(vx, vy, vz, u1, u2, params):
     Parameters
     ----------
     vx, vy, vz : float
-        Unit direction seen from (toward the light or the viewer), ``vz > 0``.
+        Unit direction seen from: toward the light or the viewer (``vz > 0``), or, in the
+        Smith walk, against a ray travelling up (``vz < 0``: only facets facing down the
+        ray are visible). Not straight down (``v = (0, 0, -1)`` sees no facet).
     u1, u2 : float
         Uniforms in ``[0, 1)``.
     params : ndarray
