@@ -23,6 +23,7 @@ function by their argument names, so the three small wrappers are generated with
 from __future__ import annotations
 
 import keyword
+import math
 
 from numba import types
 from numba.core import errors
@@ -40,7 +41,7 @@ def check_kind(modules: tuple, kind, owner: str) -> int:
     return value
 
 
-def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
+def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, missing: str | None = None):
     """A compile-time dispatched ``op(kind, *argnames)`` over ``modules``.
 
     Parameters
@@ -53,6 +54,10 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
         Argument names of that function (fixed arity).
     owner : str
         Dotted name of the registry, for error messages.
+    missing : str, optional
+        For an optional ``op``: the expression (of ``math`` and literals) the run-time chain
+        returns for a module without it, e.g. ``"(math.nan, math.nan)"``, a value its callers
+        recognise as invalid. Without it every module must define ``op``.
 
     Returns
     -------
@@ -71,12 +76,18 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str):
             return scope["call"]
         if not isinstance(kind, types.Integer):
             raise errors.TypingError(f"{owner}.{op}: the kind must be an integer; got {kind}")
-        scope = {f"implementation_{k}": getattr(module, op) for k, module in enumerate(modules)}
+        scope = {f"implementation_{k}": getattr(module, op) for k, module in enumerate(modules)
+                 if missing is None or hasattr(module, op)}
+        scope["math"] = math
+
+        def result(k):
+            return f"implementation_{k}({args})" if f"implementation_{k}" in scope else missing
+
         body = [f"def call(kind, {args}):"]
         for k in range(len(modules) - 1):
             body.append(f"    {'if' if k == 0 else 'elif'} kind == {k}:")
-            body.append(f"        return implementation_{k}({args})")
-        body.append(f"    return implementation_{len(modules) - 1}({args})")
+            body.append(f"        return {result(k)}")
+        body.append(f"    return {result(len(modules) - 1)}")
         exec("\n".join(body) + "\n", scope)
         return scope["call"]
 

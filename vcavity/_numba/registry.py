@@ -139,7 +139,7 @@ class Registry:
         """``kind`` as an int, or ``ValueError`` (naming ``owner.where``) when it is not a dispatch index."""
         return check_kind(self.modules, kind, f"{self.owner}.{where}")
 
-    def dispatcher(self, op: str, argnames: tuple[str, ...]):
+    def dispatcher(self, op: str, argnames: tuple[str, ...], missing: str | None = None):
         """``op(kind, *argnames)``: every module's function ``op``, dispatched on ``kind``.
 
         Parameters
@@ -148,13 +148,16 @@ class Registry:
             Name of the function every module defines.
         argnames : tuple of str
             Its argument names (fixed arity).
+        missing : str, optional
+            For an optional ``op``, what a module without it returns in the run-time chain
+            (:func:`vcavity._numba.dispatch.dispatcher`).
 
         Returns
         -------
         function
             Callable from Python and from jitted code (:func:`vcavity._numba.dispatch.dispatcher`).
         """
-        return dispatcher(self.modules, op, argnames, self.owner)
+        return dispatcher(self.modules, op, argnames, self.owner, missing)
 
 
 __all__ = ["Registry"]

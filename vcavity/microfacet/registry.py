@@ -27,6 +27,11 @@ diverges and only V-cavity masking applies), and
   ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
   not exact).
 
+Optional, so far (required once every distribution has one): ``sample_visible(vx, vy, vz,
+u1, u2, params) -> (mx, my, mz)``, a normal with the density of the normals visible from
+``v``, ``<v, m>+ D(m)`` normalised (physics.md sec. 14): the Smith random walk's facet
+sampling; :func:`has_visible_sampler` says which distributions offer it.
+
 Arguments and results of the jitted scalars, the same in every module (each module's
 docstrings add only what is its own): ``mx, my, mz`` a unit microfacet normal; ``vx, vy,
 vz`` a unit direction; ``u1, u2`` uniforms in ``[0, 1)`` (``u1 >= 1`` is clamped to the
@@ -110,6 +115,15 @@ sample_disk = REGISTRY.dispatcher("sample_disk", ("a", "b", "s", "params"))
 D = REGISTRY.dispatcher("D", ("mx", "my", "mz", "params"))
 pdf = REGISTRY.dispatcher("pdf", ("mx", "my", "mz", "params"))
 smith_lambda = REGISTRY.dispatcher("smith_lambda", ("vx", "vy", "vz", "params"))
+#: Optional (see the module docstring): a distribution without it gives a NaN normal,
+#: which the Smith walk counts as degenerate (it refuses such distributions before tracing).
+sample_visible = REGISTRY.dispatcher("sample_visible", ("vx", "vy", "vz", "u1", "u2", "params"),
+                                     missing="(math.nan, math.nan, math.nan)")
+
+
+def has_visible_sampler(name: str) -> bool:
+    """True when the distribution offers ``sample_visible`` (physics.md sec. 14)."""
+    return hasattr(get(name), "sample_visible")
 
 
 # ------------------------------------------------------------------ vectorised path
@@ -174,5 +188,6 @@ def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
 
 __all__ = ["DISTRIBUTION_MODULES", "REGISTRY", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
            "config_keys", "value_keys", "is_isotropic", "params_from", "lobe_width", "help_lines",
-           "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "evaluate",
+           "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "sample_visible",
+           "has_visible_sampler", "evaluate",
            "sample_normals"]

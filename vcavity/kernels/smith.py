@@ -1,0 +1,164 @@
+"""The Smith random walk (Heitz, Hanika, d'Eon and Dachsbacher 2016; physics.md sec. 15):
+the second microsurface beside the V-groove walk of :mod:`vcavity.kernels.trace`.
+
+A Smith microsurface has uncorrelated heights and slopes. A ray inside it is a direction
+``w`` and a height ``h``; the next facet it meets is found in two draws, the height of the
+intersection (or escape) from the Smith masking of ``w`` and the facet normal from the
+normals visible against ``w`` (:func:`vcavity.microfacet.registry.sample_visible`). The
+facet event is the same code as in the V-groove walk (:func:`vcavity.facet.registry.event`),
+in a frame turned about ``z`` so that the facet normal lies in its x-z plane.
+
+Heights enter only through ``C1(h)``, the share of the surface below ``h``: the walk keeps
+``c = C1(h)`` itself (1 above the surface), which is the uniform height distribution's
+``(h + 1)/2`` and which makes plain that the result cannot depend on the height
+distribution (physics.md sec. 15).
+
+The kernel has the signature, results and reproducibility of the V-groove walk's
+(:func:`vcavity.kernels.trace.get_kernel`): per-block random streams, integer counts per
+thread slot, one compiled variant per distribution x facet variant, cached on disk.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import prange
+
+from vcavity._numba.jit import njit
+from vcavity.facet import registry as facets
+from vcavity.facet.common import ABSORBED as FACET_ABSORBED
+from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
+                                      exit_buffers, order_cell_tally)
+from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
+                                   STAT_UNBINNED)
+from vcavity.microfacet import registry as distributions
+from vcavity.rng import next_uniform
+from vcavity.sensor.binning import bin_block
+
+
+@njit(cache=True, inline="always")
+def _trace_smith_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant, facet_data, max_bounces):
+    """Trace one path from the light into the Smith microsurface until it leaves or ends.
+
+    Returns ``(state, outcome, bounces, wx, wy, wz)`` as the V-groove walk's ``_trace_path``.
+    """
+    wx, wy, wz = -ix, -iy, -iz
+    c = 1.0  # C1 of the current height: the share of the surface below it (above all of it)
+    k = 0
+    while True:
+        state, u = next_uniform(state)
+        if wz > 0.0:
+            # travelling up: no facet in the way with probability G1 = c^Λ(w) (Heitz 2016 eq. 5)
+            lam = distributions.smith_lambda(dist_kind, wx, wy, wz, params)
+            escape = c ** lam
+            if u >= 1.0 - escape:
+                break
+            c = c / (1.0 - u) ** (1.0 / lam)
+        elif wz < 0.0:
+            # travelling down it meets the surface surely; P(not above C1 = x) = (x/c)^(1 + Λ(-w))
+            lam = distributions.smith_lambda(dist_kind, -wx, -wy, -wz, params)
+            c = c * u ** (1.0 / (1.0 + lam))
+        # (a horizontal ray meets the surface at its own height)
+        if k == max_bounces:
+            return state, TRUNCATED, k, 0.0, 0.0, 0.0
+        k += 1
+        state, u1 = next_uniform(state)
+        state, u2 = next_uniform(state)
+        mx, my, mz = distributions.sample_visible(dist_kind, -wx, -wy, -wz, u1, u2, params)
+        cos_in = -(wx * mx + wy * my + wz * mz)
+        if not cos_in > 0.0:  # a normal seen edge-on, by rounding
+            return state, DEGENERATE, k, 0.0, 0.0, 0.0
+        # the facet frame: turned about z so that m = (sin θm, 0, cos θm)
+        sin_m = math.sqrt(mx * mx + my * my)
+        if sin_m > 0.0:
+            cos_p, sin_p = mx / sin_m, my / sin_m
+        else:
+            cos_p, sin_p = 1.0, 0.0
+        dx = cos_p * wx + sin_p * wy
+        dy = cos_p * wy - sin_p * wx
+        state, fate, dx, dy, wz = facets.event(facet_kind, facet_variant, state, dx, dy, wz, cos_in, sin_m, mz,
+                                               facet_data)
+        if fate == FACET_ABSORBED:
+            return state, ABSORBED, k, 0.0, 0.0, 0.0
+        wx = cos_p * dx - sin_p * dy
+        wy = sin_p * dx + cos_p * dy
+    return state, EXITED, k, wx, wy, wz
+
+
+def walkable(distribution: str) -> str | None:
+    """None when the Smith walk can use ``distribution``, else the reason it cannot (one line)."""
+    module = distributions.get(distribution)
+    if module.SMITH == "infinite":
+        return f"the Smith walk needs a finite Smith Lambda; {distribution}'s diverges (V-cavity masking only)"
+    if not distributions.has_visible_sampler(distribution):
+        return (f"the Smith walk has no visible-normal sampler for {distribution} yet "
+                f"(available: {', '.join(n for n in distributions.NAMES if distributions.has_visible_sampler(n))})")
+    return None
+
+
+def get_smith_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
+    """The jitted Smith walk for one distribution, facet model and facet variant.
+
+    Signature, arguments and results as :func:`vcavity.kernels.trace.get_kernel`'s kernel.
+
+    Raises
+    ------
+    ValueError
+        The distribution cannot be walked (:func:`walkable`).
+    """
+    reason = walkable(distributions.MODULES[distributions.REGISTRY.check_kind(dist_kind, "get_smith_kernel")].NAME)
+    if reason is not None:
+        raise ValueError(reason)
+    return build_kernel("smith_kernel", _make_smith_kernel, dist_kind, facet_kind, facet_variant)
+
+
+def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
+    """The Python Smith walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
+
+    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+               max_bounces, max_order, resolution, n_slots, first_binned_order):
+        _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
+        counts = order_cell_tally(n_slots, max_order, resolution)
+        stats = np.zeros((n_slots, N_STATS), np.int64)
+        ix = incident[0]
+        iy = incident[1]
+        iz = incident[2]
+        for slot in prange(n_slots):
+            slot_counts = counts[slot]
+            lost = np.zeros(3, np.int64)  # absorbed, truncated, degenerate
+            deepest = 0
+            unbinned = 0
+            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
+            for b in range(slot, n_blocks, n_slots):
+                state, n_here = block_start(direction_key, first_block, b, n_paths)
+                n_exits = 0
+                for _ in range(n_here):
+                    state, outcome, k, wx, wy, wz = _trace_smith_path(
+                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
+                    deepest = max(deepest, k)
+                    if outcome == EXITED:
+                        if k < first_binned_order:
+                            unbinned += 1
+                        else:
+                            exit_x[n_exits] = wx
+                            exit_y[n_exits] = wy
+                            exit_z[n_exits] = wz
+                            exit_row[n_exits] = k if k <= max_order else 0
+                            n_exits += 1
+                    else:
+                        lost[outcome - ABSORBED] += 1
+                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+                for j in range(n_exits):
+                    slot_counts[exit_row[j], exit_cell[j]] += 1
+            stats[slot, STAT_ABSORBED] = lost[ABSORBED - ABSORBED]
+            stats[slot, STAT_TRUNCATED] = lost[TRUNCATED - ABSORBED]
+            stats[slot, STAT_DEGENERATE] = lost[DEGENERATE - ABSORBED]
+            stats[slot, STAT_MAX_BOUNCES] = deepest
+            stats[slot, STAT_UNBINNED] = unbinned
+        return counts, stats
+
+    return kernel
+
+
+__all__ = ["get_smith_kernel", "walkable"]
