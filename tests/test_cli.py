@@ -44,7 +44,7 @@ def test_overrides_and_info(small_config, tmp_path, capsys):
     assert main(["info", str(out_path)]) == 0
     info = capsys.readouterr().out
     # one line: the distribution and facet names, each with its parameters as stored
-    assert "material: ggx, interfaced_lambertian facets: alpha=0.4 kd=0.5 eta=1.5\n" in info and "3,000" in info
+    assert "material: v-cavity microsurface, ggx, interfaced_lambertian facets: alpha=0.4 kd=0.5 eta=1.5\n" in info and "3,000" in info
 
 
 def test_info_on_a_non_table_is_a_one_line_error(tmp_path, capsys):

@@ -117,8 +117,8 @@ def test_key_of_another_distribution_names_what_this_one_takes():
 def test_unknown_key_lists_the_accepted_keys():
     with pytest.raises(ConfigError) as info:
         validate(_raw(roughness=0.2))
-    assert str(info.value) == ("material.roughness = 0.2: unknown key; accepted keys: distribution, alpha, "
-                               "alpha_x, alpha_y, facet, kd, eta")
+    assert str(info.value) == ("material.roughness = 0.2: unknown key; accepted keys: microsurface, distribution, "
+                               "alpha, alpha_x, alpha_y, facet, kd, eta")
 
 
 def test_kd_is_required_for_interfaced_lambertian():

@@ -177,7 +177,7 @@ def test_resume_refuses_another_sweep_and_an_existing_output_needs_a_flag(swept,
 
 
 BAD = [  # (what the [sweep] table or base says, the message's start)
-    ("[sweep]\nroughness = [0.1]\n", "sweep.roughness = [0.1]: not a sweep axis; accepted: distribution, alpha"),
+    ("[sweep]\nroughness = [0.1]\n", "sweep.roughness = [0.1]: not a sweep axis; accepted: microsurface, distribution, alpha"),
     ("[sweep]\nalpha = []\n", "sweep.alpha = []: must be a non-empty list"),
     ("[sweep]\nalpha = 0.3\n", "sweep.alpha = 0.3: must be a non-empty list"),
     ("[sweep]\nalpha = [0.3, 0.5, -1]\n", "sweep.alpha[2] = -1: must be > 0"),

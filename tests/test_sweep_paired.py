@@ -64,7 +64,7 @@ BAD = [
      "sweep.paired.wavelength.k = [3.7, 2.5]: has 2 values, sweep.paired.wavelength.label_nm has 3; the lists "
      "of a paired axis must have the same length"),
     ("[sweep.paired.wavelength]\nlabel_nm = [650, 550]\neta = [0.14, 0.43]\nkk = [3.7, 2.5]\n",
-     "sweep.paired.wavelength.kk = [3.7, 2.5]: not a parameter a paired axis can set; accepted: distribution, "),
+     "sweep.paired.wavelength.kk = [3.7, 2.5]: not a parameter a paired axis can set; accepted: microsurface, distribution, "),
     ("[sweep.paired.wavelength]\neta = [0.14, 0.43]\nk = [3.7, 2.5]\n",
      "needs exactly one label list (label or label_<units>) naming its points"),
     ("[sweep.paired.wavelength]\nlabel = [1, 2]\nlabel_nm = [650, 550]\neta = [0.14, 0.43]\n",

@@ -10,6 +10,7 @@ naming the field, the offending value and what is accepted.
 A run config has four tables::
 
     [material]                     # the microsurface
+    microsurface = "v-cavity"      # or "smith": Smith's random walk (physics.md sec. 15)
     distribution = "beckmann"      # any registered distribution (microfacet/registry.py)
     alpha = 0.6                    # ... and its parameters (see `vcavity run --help`)
     facet = "interfaced_lambertian"  # any registered facet model (facet/registry.py):
@@ -52,6 +53,10 @@ from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import ParameterError
 
+#: The microsurfaces a material can have: V-grooves (the default) or Smith's uncorrelated
+#: heights and slopes, walked by Heitz et al. 2016 (physics.md sec. 5 and 15).
+MICROSURFACES = ("v-cavity", "smith")
+DEFAULT_MICROSURFACE = "v-cavity"
 DEFAULT_PATHS = 10_000_000
 DEFAULT_MAX_ORDER = 3
 # GGX tails make deep grooves common: the truncated share falls like cap^-2 with mirror
@@ -89,12 +94,15 @@ class Material:
         Canonical parameter values of the distribution (e.g. ``alpha_x``, ``alpha_y``).
     facet_params : dict
         Canonical parameter values of the facet model (e.g. ``kd``, ``eta``; mirror: none).
+    microsurface : str
+        One of :data:`MICROSURFACES`: V-grooves (default) or the Smith microsurface.
     """
 
     distribution: str
     facet: str
     distribution_params: dict = dataclasses.field(default_factory=dict)
     facet_params: dict = dataclasses.field(default_factory=dict)
+    microsurface: str = DEFAULT_MICROSURFACE
 
     @property
     def isotropic(self) -> bool:
@@ -102,8 +110,11 @@ class Material:
         return distributions.is_isotropic(self.distribution, self.distribution_params)
 
     def to_dict(self) -> dict[str, Any]:
-        """Flat ``{"distribution", <its parameters>, "facet", <its parameters>}`` (what tables store)."""
-        return {"distribution": self.distribution, **self.distribution_params, "facet": self.facet,
+        """Flat ``{"distribution", <its parameters>, "facet", <its parameters>}`` (what tables
+        store), with ``"microsurface"`` first when it is not the default V-cavity (so V-cavity
+        tables are what they were before the Smith walk existed)."""
+        surface = {} if self.microsurface == DEFAULT_MICROSURFACE else {"microsurface": self.microsurface}
+        return {**surface, "distribution": self.distribution, **self.distribution_params, "facet": self.facet,
                 **self.facet_params}
 
     @classmethod
@@ -295,10 +306,16 @@ def _validate_material(raw: dict, table: str = "material") -> Material:
     facet = raw.get("facet", "interfaced_lambertian")
     if facet not in facets.NAMES:
         _fail(f"{table}.facet", facet, f"accepted: {', '.join(facets.NAMES)}")
+    surface = raw.get("microsurface", DEFAULT_MICROSURFACE)
+    if surface not in MICROSURFACES:
+        _fail(f"{table}.microsurface", surface, f"accepted: {', '.join(MICROSURFACES)}")
+    if surface == "smith" and distributions.smith_walk_refusal(dist) is not None:
+        _fail(f"{table}.microsurface", surface, f"with distribution {dist!r}: "
+              f"{distributions.smith_walk_refusal(dist)}")
     dist_keys = distributions.config_keys(dist)
     facet_keys = facets.config_keys(facet)
     for key, value in raw.items():
-        if key in ("distribution", "facet") or key in dist_keys or key in facet_keys:
+        if key in ("microsurface", "distribution", "facet") or key in dist_keys or key in facet_keys:
             continue
         owner = _owner_of(key)
         if owner == "distribution":
@@ -307,12 +324,12 @@ def _validate_material(raw: dict, table: str = "material") -> Material:
         if owner == "facet":
             _fail(f"{table}.{key}", value, f"not used by facet {facet!r} "
                   f"(it takes: {', '.join(facet_keys) or 'nothing'})")
-        accepted = ("distribution", *dist_keys, "facet", *facet_keys)
+        accepted = ("microsurface", "distribution", *dist_keys, "facet", *facet_keys)
         _fail(f"{table}.{key}", value, f"unknown key; accepted keys: {', '.join(accepted)}")
     try:
         return Material(distribution=dist, facet=facet,
                         distribution_params=distributions.parse(dist, raw, table),
-                        facet_params=facets.parse(facet, raw, table))
+                        facet_params=facets.parse(facet, raw, table), microsurface=surface)
     except ParameterError as exc:
         raise ConfigError(str(exc)) from None
 
@@ -395,6 +412,9 @@ def _validate_estimation(sim: dict, material: Material, incidence, track: bool, 
     estimator = sim.get("estimator", "analog")
     if estimator not in ESTIMATORS:
         _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in ESTIMATORS)}")
+    if material.microsurface == "smith" and estimator != "analog":
+        _fail("simulation.estimator", estimator, "is for the v-cavity microsurface so far; with "
+              "material.microsurface = 'smith' use 'analog'")
     if estimator == EXACT and not facets.is_specular(material.facet, material.facet_params):
         _fail("simulation.estimator", estimator, "is for specular facets only (mirror, conductor, "
               "interfaced_lambertian with kd = 0 and eta > 1), whose every order has a deterministic model; "

@@ -34,9 +34,12 @@ def add_parser(subparsers) -> None:
         "2 for bad input (not a table, missing dataset or order, model not applicable).")
     compare.set_defaults(handler=command)
     compare.add_argument("table", metavar="OUT.h5")
-    compare.add_argument("--model", default="vcavity", choices=("vcavity", "smith", "smith-hc", "oren-nayar"),
+    compare.add_argument("--model", default=None, choices=("vcavity", "smith", "smith-hc", "oren-nayar"),
                          help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
-                         "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1)")
+                         "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1). "
+                         "Default: the exact f1 model of the table's microsurface (vcavity; smith-hc for "
+                         "microsurface = smith). The chi-square and albedo tests always use that exact model; "
+                         "a V-cavity model on a Smith table is refused")
     compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
     compare.add_argument("--significance", type=fraction_arg, default=0.01, metavar="A",
                          help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
@@ -108,7 +111,7 @@ def _compare_order(args: argparse.Namespace, table) -> int:
     from vcavity.analytic.single_bounce import ModelNotApplicable
     from vcavity.compare import compare_order, format_order_report
 
-    for flag, given in (("--model", args.model != "vcavity"), ("--plots", args.plots is not None),
+    for flag, given in (("--model", args.model is not None), ("--plots", args.plots is not None),
                         ("--lambda-fit", args.lambda_fit), ("--nodes", args.nodes != 64)):
         if given:
             return error(f"{flag} does not apply with --order (the every-order model has no such choice)")

@@ -91,6 +91,10 @@ class OrdersReport:
 
 def _check_applicable(table, material, order: int) -> None:
     """Refuse (one line) what the every-order model cannot test."""
+    if material.microsurface != "v-cavity":
+        raise ModelNotApplicable(f"--order {order_name(order)}: not applicable to table {table.path}: the "
+                                 f"every-order model is of V-cavities, this table's microsurface is "
+                                 f"{material.microsurface}")
     if not is_specular(material):
         raise ModelNotApplicable(f"--order {order_name(order)}: not applicable to {material.facet} facets with "
                                  f"{dict(material.facet_params)}: the every-order model needs specular facets "

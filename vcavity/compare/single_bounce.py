@@ -7,8 +7,9 @@ For each incident direction of a table:
 - relative L1 difference over the hemisphere, ``Σ_c |n_c - e_c| / Σ_c e_c`` (the
   cosine-weighted cell integrals, physics.md sec. 6), next to the value Monte-Carlo noise
   alone gives (exact binomial mean absolute deviation per cell, summed);
-- two tests of the ``f1`` counts against the V-cavity single-bounce model (always that
-  model: it is the exact expectation of ``f1``, physics.md sec. 7): a Pearson
+- two tests of the ``f1`` counts against the single-bounce model of the table's
+  microsurface (always that model: it is the exact expectation of ``f1``; V-cavity for
+  V-groove tables, physics.md sec. 7, height-correlated Smith for Smith tables, sec. 15): a Pearson
   chi-square over cells (expected count < 5 pooled, plus the complementary "not f1"
   category; chi2/dof, p-value, the largest per-cell deviation in standard errors) and a
   z-test of the f1 albedo (the total count). Both are fail-safe
@@ -83,10 +84,11 @@ class ComparisonReport:
     significance: float
     per_test_level: float
     directions: list = field(default_factory=list)
+    exact_model: str = "vcavity"  # the model the f1 tests use (EXACT_F1_MODEL of the microsurface)
 
     @property
     def passed(self) -> bool:
-        """True when both f1-vs-V-cavity tests pass for every direction."""
+        """True when both f1 tests (against :attr:`exact_model`) pass for every direction."""
         return all(d.passed for d in self.directions)
 
 
@@ -136,7 +138,13 @@ def build_model(material: Material, model: str, n_nodes: int = DEFAULT_BODY_NODE
     return SingleBounceModel(material, masking=model, lambda_fit=lambda_fit, n_nodes=n_nodes)
 
 
-def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_SIGNIFICANCE,
+#: The exact expectation of each microsurface's f1 (what the chi-square tests use): the
+#: V-groove walk's f1 is the V-cavity model, the Smith walk's the height-correlated Smith
+#: model (physics.md sec. 7 and 15).
+EXACT_F1_MODEL = {"v-cavity": "vcavity", "smith": "smith-hc"}
+
+
+def compare_table(table, model: str | None = None, significance: float = DEFAULT_SIGNIFICANCE,
                   n_nodes: int = DEFAULT_BODY_NODES, lambda_fit: bool = False,
                   plots_dir=None) -> ComparisonReport:
     """Compare every incident direction of ``table`` with ``model``.
@@ -144,8 +152,9 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
     Parameters
     ----------
     table : vcavity.io.table.Table
-    model : str
-        One of :data:`MODELS`.
+    model : str, optional
+        One of :data:`MODELS`; default the exact f1 model of the table's microsurface
+        (:data:`EXACT_F1_MODEL`). The f1 tests always use that one.
     significance : float
         Family-wise false-alarm rate of the f1 tests (Sidak over 2 tests per direction).
     n_nodes : int
@@ -161,8 +170,13 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
         Model not applicable to the table's material, or a needed order missing.
     """
     material = material_of_table(table)
+    exact = EXACT_F1_MODEL[material.microsurface]
+    model = exact if model is None else model
+    if model == "vcavity" and exact != "vcavity":
+        raise ModelNotApplicable(f"--model vcavity: table {table.path} is of the {material.microsurface} "
+                                 f"microsurface; its f1 model is {exact} (the V-cavity model describes V-grooves)")
     chosen = build_model(material, model, n_nodes, lambda_fit)
-    reference = chosen if model == "vcavity" else build_model(material, "vcavity", n_nodes)
+    reference = chosen if model == exact else build_model(material, exact, n_nodes)
     orders = _orders_for(model)
     order_rows = []
     for k in sorted(set(orders) | {1}):
@@ -174,7 +188,7 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
     sensor = table.sensor
     level = sidak_threshold(significance, 2 * len(table.theta_i))
     report = ComparisonReport(path=str(table.path), model=model, material=dict(table.material),
-                              significance=significance, per_test_level=level)
+                              significance=significance, per_test_level=level, exact_model=exact)
     for j, (theta, phi) in enumerate(zip(table.theta_i, table.phi_i)):
         i = incident_vector(float(theta), float(phi))
         paths = int(table.paths[j])
@@ -188,7 +202,7 @@ def compare_table(table, model: str = "vcavity", significance: float = DEFAULT_S
         l1 = float(np.sum(np.abs(observed - expected)) / max(np.sum(expected), 1e-300))
         # noise yardstick: binomial cells around the model (its exact expectation for the
         # V-cavity f1), around the observed frequencies otherwise
-        p_cells = model_integrals if model == "vcavity" else observed / paths
+        p_cells = model_integrals if model == exact else observed / paths
         noise = binomial_mean_abs_deviation(paths, p_cells).sum() / max(np.sum(paths * p_cells), 1e-300)
         report.directions.append(DirectionComparison(
             theta_i=float(theta), phi_i=float(phi), paths=paths,
@@ -211,7 +225,7 @@ def format_report(report: ComparisonReport) -> str:
     lines = [f"table {report.path}",
              f"material: {', '.join(f'{k}={v}' for k, v in m.items())}",
              f"model: {report.model} vs {' + '.join(order_name(k) for k in _orders_for(report.model))}; "
-             f"f1 vs V-cavity model: chi-square over cells and albedo z-test, family level "
+             f"f1 vs {report.exact_model} model: chi-square over cells and albedo z-test, family level "
              f"{report.significance:g} (Sidak: {report.per_test_level:.3g} per test)"]
     level = report.per_test_level
     for d in report.directions:
@@ -224,7 +238,7 @@ def format_report(report: ComparisonReport) -> str:
             f"  {'+'.join(order_name(k) for k in d.model_orders)}: table {fixed(d.table_model_albedo)}  "
             f"model {fixed(d.model_albedo)}  ({report.model})",
             f"  relative L1 {fmt(d.relative_l1)}  (noise alone: {fmt(d.noise_l1)}, ratio {fmt(ratio)})",
-            f"  chi2 f1 vs vcavity: {fmt(c.statistic)} / {c.dof} dof = {fmt(c.statistic / c.dof)}  "
+            f"  chi2 f1 vs {report.exact_model}: {fmt(c.statistic)} / {c.dof} dof = {fmt(c.statistic / c.dof)}  "
             f"p = {fmt(c.p_value)}  ({c.n_categories} categories, {c.pooled_cells} cells pooled; "
             f"largest cell deviation {fmt(c.max_abs_z)} sigma in cell {c.max_z_cell})  -> {c.verdict(level)}",
             f"  f1 albedo: table {fixed(d.table_albedo.get(1, float('nan')))}  model {fixed(d.vcavity_f1_albedo)}  "

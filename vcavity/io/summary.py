@@ -30,11 +30,14 @@ def format_material(material: dict) -> str:
     followed by its parameters as stored (isotropic ``alpha_x == alpha_y`` shown as
     ``alpha``). Needs no registry, so reading a table imports no JIT code.
     """
-    params = {k: v for k, v in material.items() if k not in ("distribution", "facet")}
+    params = {k: v for k, v in material.items() if k not in ("microsurface", "distribution", "facet")}
     if "alpha_x" in params and params.get("alpha_x") == params.get("alpha_y"):
         params = {"alpha": params.pop("alpha_x"), **{k: v for k, v in params.items() if k != "alpha_y"}}
     text = " ".join(f"{k}={v:g}" if isinstance(v, (int, float)) else f"{k}={v}" for k, v in params.items())
-    return f"{material.get('distribution', '?')}, {material.get('facet', '?')} facets: {text}".rstrip(": ")
+    # tables without the key are V-cavity tables (the key is stored only for Smith)
+    surface = material.get("microsurface", "v-cavity")
+    return (f"{surface} microsurface, {material.get('distribution', '?')}, {material.get('facet', '?')} facets: "
+            f"{text}").rstrip(": ")
 
 
 def _estimator_line(table) -> str:

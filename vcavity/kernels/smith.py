@@ -86,15 +86,8 @@ def _trace_smith_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_va
     return state, EXITED, k, wx, wy, wz
 
 
-def walkable(distribution: str) -> str | None:
-    """None when the Smith walk can use ``distribution``, else the reason it cannot (one line)."""
-    module = distributions.get(distribution)
-    if module.SMITH == "infinite":
-        return f"the Smith walk needs a finite Smith Lambda; {distribution}'s diverges (V-cavity masking only)"
-    if not distributions.has_visible_sampler(distribution):
-        return (f"the Smith walk has no visible-normal sampler for {distribution} yet "
-                f"(available: {', '.join(n for n in distributions.NAMES if distributions.has_visible_sampler(n))})")
-    return None
+#: None when the Smith walk can use a distribution, else why not (one line).
+walkable = distributions.smith_walk_refusal
 
 
 def get_smith_kernel(dist_kind: int, facet_kind: int, facet_variant: int):

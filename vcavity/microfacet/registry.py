@@ -126,6 +126,16 @@ def has_visible_sampler(name: str) -> bool:
     return hasattr(get(name), "sample_visible")
 
 
+def smith_walk_refusal(name: str) -> str | None:
+    """None when the Smith random walk can use the distribution ``name``, else why not (one line)."""
+    if get(name).SMITH == "infinite":
+        return f"the Smith walk needs a finite Smith Lambda; {name}'s diverges (V-cavity masking only)"
+    if not has_visible_sampler(name):
+        return (f"the Smith walk has no visible-normal sampler for {name} yet "
+                f"(available: {', '.join(n for n in NAMES if has_visible_sampler(n))})")
+    return None
+
+
 # ------------------------------------------------------------------ vectorised path
 
 _ROW_OPS = {"D": 0, "pdf": 1, "smith_lambda": 2}
@@ -189,5 +199,5 @@ def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
 __all__ = ["DISTRIBUTION_MODULES", "REGISTRY", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
            "config_keys", "value_keys", "is_isotropic", "params_from", "lobe_width", "help_lines",
            "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "sample_visible",
-           "has_visible_sampler", "evaluate",
+           "has_visible_sampler", "smith_walk_refusal", "evaluate",
            "sample_normals"]

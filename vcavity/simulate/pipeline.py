@@ -24,6 +24,7 @@ from vcavity.simulate.exact import ExactModels
 from vcavity.simulate.f1_models import F1Models
 from vcavity.facet import registry as facets
 from vcavity.kernels import paper
+from vcavity.kernels.smith import get_smith_kernel
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED, get_kernel)
 from vcavity.microfacet import registry as distributions
@@ -138,7 +139,8 @@ class Simulation:
         self.sensor = EqualAreaSensor(config.sensor_resolution)
         self.weighted = config.estimator == PAPER
         self.exact = ExactModels(config, self.sensor, incident_vector) if config.estimator == EXACT else None
-        build = paper.get_paper_kernel if self.weighted else get_kernel
+        build = (paper.get_paper_kernel if self.weighted
+                 else get_smith_kernel if config.material.microsurface == "smith" else get_kernel)
         # the exact estimator traces nothing: no kernel is built or compiled
         self.kernel = None if self.exact else build(self.scene.dist_kind, self.scene.facet_kind,
                                                     self.scene.facet_variant)

@@ -166,8 +166,9 @@ def material_keys() -> tuple[str, ...]:
 
 
 def axis_keys() -> tuple[str, ...]:
-    """Keys a ``[sweep]`` table accepts: distribution, every registered parameter, the angles."""
-    return ("distribution",) + material_keys() + INCIDENCE_AXES
+    """Keys a ``[sweep]`` table accepts: microsurface, distribution, every registered
+    parameter, the angles."""
+    return ("microsurface", "distribution") + material_keys() + INCIDENCE_AXES
 
 
 def parameter_spec(key: str, material: dict):
@@ -190,6 +191,8 @@ def units_and_name(key: str, material: dict) -> tuple[str | None, str]:
     """Units and long name of an axis or a paired list named ``key`` (from its declaration)."""
     if key == "distribution":
         return None, "microfacet distribution"
+    if key == "microsurface":
+        return None, "microsurface (v-cavity or smith)"
     if key in INCIDENCE_AXES:
         return "degree", "incident polar angle" if key == "theta_i_deg" else "incident azimuth"
     spec = parameter_spec(key, material)

@@ -172,7 +172,8 @@ def _structure(raw: dict) -> tuple[dict, dict, tuple[PointAxis, ...]]:
     paired = ()
     if "paired" in raw["sweep"]:
         try:
-            paired = parse_paired(raw["sweep"]["paired"], ("distribution",) + material_keys(), tuple(table))
+            paired = parse_paired(raw["sweep"]["paired"], ("microsurface", "distribution") + material_keys(),
+                                  tuple(table))
         except ValueError as exc:
             raise SweepError(str(exc)) from None
     every_axis = [*(plain_axis(k, v) for k, v in table.items()), *paired]
@@ -209,7 +210,8 @@ def _applicability(swept: tuple[PointAxis, ...], material: dict) -> None:
                     where = f" ({setter_field(dist_axis, 'distribution')}[{j}])" if dist_axis else ""
                     _fail(field, list(values), f"not a parameter of distribution {name!r}{where} "
                           f"(it takes: {', '.join(distributions.config_keys(name)) or 'nothing'})")
-        elif key != "distribution" and facet in facets.NAMES and key not in facets.config_keys(facet):
+        elif key not in ("distribution", "microsurface") and facet in facets.NAMES \
+                and key not in facets.config_keys(facet):
             _fail(field, list(values), f"not used by facet {facet!r} "
                   f"(it takes: {', '.join(facets.config_keys(facet)) or 'nothing'})")
 
