@@ -155,8 +155,12 @@ def run_epilog() -> str:
     from vcavity.facet import registry as facets
     from vcavity.microfacet import registry as distributions
 
+    walkable = [n for n in distributions.NAMES if distributions.smith_walk_refusal(n) is None]
     lines = ["config file (TOML):",
-             f"  [material]   distribution = {' | '.join(repr(n) for n in distributions.NAMES)} "
+             "  [material]   microsurface = 'v-cavity' | 'smith' (default 'v-cavity': V-grooves; 'smith': "
+             "Smith's random walk,",
+             f"               Heitz et al. 2016, for {', '.join(walkable)}, analog estimator; physics.md sec. 15)",
+             f"               distribution = {' | '.join(repr(n) for n in distributions.NAMES)} "
              f"(default 'beckmann'), with its parameters:"]
     lines += [f"      {line}" for line in distributions.help_lines()]
     lines.append(f"               facet = {' | '.join(repr(n) for n in facets.NAMES)} "
