@@ -319,10 +319,11 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
     Raises
     ------
     BadInput
-        An unusable ``--dask`` address, or a table write that failed.
+        An unusable ``--dask`` address, or a table or checkpoint write that failed.
     """
     import dataclasses
 
+    from vcavity.io.checkpoint import CheckpointWriteError
     from vcavity.io.writer import write_result
     from vcavity.simulate import driver
 
@@ -339,6 +340,10 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
         result = driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
                                      quiet=args.quiet, executor=executor)
         return (EXIT_INTERRUPTED, None) if result is None else (EXIT_OK, result)
+    except CheckpointWriteError as exc:
+        kept = ("the previous checkpoint is unchanged" if exc.previous else "no checkpoint was kept")
+        raise BadInput(f"{output.field} = {output.shown!r}: {exc}; no table written, an existing file is "
+                       f"unchanged; {kept}") from None
     except OSError as exc:
         reason = exc.strerror or first_line(exc)
         raise BadInput(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "

@@ -29,6 +29,24 @@ class CheckpointError(ValueError):
     """A checkpoint cannot be used (unreadable, corrupted, or of another run); one line."""
 
 
+class CheckpointWriteError(Exception):
+    """Saving a checkpoint failed (disk full, ...); nothing was replaced.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The checkpoint that could not be written.
+    previous : bool
+        Whether an earlier checkpoint is at ``path`` (unchanged: the write is atomic).
+    reason : str
+        Why, in a few words (``No space left on device``).
+    """
+
+    def __init__(self, path: Path, previous: bool, reason: str):
+        super().__init__(f"writing the checkpoint {str(path)!r} failed ({reason})")
+        self.path, self.previous, self.reason = path, previous, reason
+
+
 @dataclass
 class RunState:
     """Progress of a run (see module doc); arrays are updated in place while it runs."""
@@ -63,27 +81,31 @@ def _payload_digest(state: RunState, config_json: str) -> str:
 
 
 def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planned: int) -> None:
-    """Write ``state`` atomically to ``path`` (temporary file, fsync, ``os.replace``; the
-    temporary names and their cleanup are those of tables, :mod:`vcavity.io.atomic`)."""
-    import h5py
+    """Write ``state`` atomically to ``path`` (:func:`vcavity.io.atomic.write_hdf5`: built in
+    memory, temporary file, fsync, ``os.replace``; names and cleanup those of tables).
 
-    from vcavity.io.atomic import remove_stale_temporaries, replace_atomically
+    Raises
+    ------
+    OSError
+        The file could not be written (disk full, ...); a checkpoint already at ``path`` is
+        unchanged and no temporary file is left.
+    """
+    from vcavity.io.atomic import remove_stale_temporaries, write_hdf5
 
     config_json = json.dumps(config_dict, sort_keys=True, default=str)
 
-    def fill(temporary):
-        with h5py.File(temporary, "w") as h5:
-            h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
-                             "config": config_json, "config_digest": config_digest(config_dict),
-                             "payload_sha256": _payload_digest(state, config_json),
-                             "compute_time_s": float(state.compute_time_s),
-                             "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
-            for name in _ARRAYS:
-                array = getattr(state, name)
-                h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
+    def build(h5):
+        h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
+                         "config": config_json, "config_digest": config_digest(config_dict),
+                         "payload_sha256": _payload_digest(state, config_json),
+                         "compute_time_s": float(state.compute_time_s),
+                         "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
+        for name in _ARRAYS:
+            array = getattr(state, name)
+            h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
 
     remove_stale_temporaries(path)
-    replace_atomically(Path(path), fill)
+    write_hdf5(Path(path), build)
 
 
 def load(path, config_dict: dict) -> RunState:
