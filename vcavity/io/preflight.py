@@ -74,12 +74,14 @@ def _kind(mode: int) -> str:
     return "not a regular file"
 
 
-def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
+def check_output(out: Output, config_file: str | None, overwrite: bool, source: str | None = None) -> None:
     """Refuse an output the atomic rename must not replace, or cannot create.
 
     An existing link, folder, FIFO or device is never replaced (the rename would replace
-    the node itself); the run config is never the table, whatever path names it (same
-    file, compared with ``os.path.samefile``); an existing table only with ``--overwrite``.
+    the node itself); the run config or the command's input file (``source``: the table
+    ``export`` or ``plot`` reads) is never the output, whatever path names it (same file,
+    compared with ``os.path.samefile``); an existing file only with ``--overwrite``.
+    ``run``, ``sweep``, ``export`` and ``plot`` all check their output here.
 
     Raises
     ------
@@ -107,6 +109,8 @@ def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
         if config_file is not None and os.path.samefile(path, config_file):
             raise out.fail(f"is the run config {config_file!r} itself; give the table another name "
                            "(-o OUT.h5)")
+        if source is not None and os.path.exists(source) and os.path.samefile(path, source):
+            raise out.fail(f"is the input {source!r} itself; give the output another name")
         if not overwrite:
             raise out.fail("exists; pass --overwrite to replace it (atomically, once the new file is complete)")
     _check_folder(out)
