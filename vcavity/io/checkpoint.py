@@ -146,6 +146,37 @@ def load(path, config_dict: dict) -> RunState:
     return state
 
 
+def foreign_output(path, config_dict: dict) -> str | None:
+    """What the regular file ``path`` is, unless it is a table of the run ``config_dict``.
+
+    ``--resume`` may replace the table its own run wrote (same configuration and seed:
+    the table was renamed into place, the checkpoint not yet removed), nothing else.
+
+    Returns
+    -------
+    str or None
+        None for a table of this run; else what the file is, for a one-line refusal
+        (``"a sweep file"``, ``"a table of another run (...)"``, ``"not a vcavity table"``).
+    """
+    import h5py
+
+    from vcavity.io import schema
+
+    try:
+        with h5py.File(path, "r") as h5:
+            kind, stored = h5.attrs.get("format"), h5.attrs.get("config")
+    except OSError:
+        return "not a vcavity table"
+    kind = kind.decode() if isinstance(kind, bytes) else kind
+    if kind == schema.FORMAT_NAME:
+        try:
+            same = config_digest(json.loads(str(stored))) == config_digest(config_dict)
+        except (TypeError, ValueError, AttributeError):
+            same = False
+        return None if same else "a table of another run (its config or seed differs)"
+    return {"vcavity-sweep": "a sweep file", FORMAT_NAME: "a checkpoint"}.get(kind, "not a vcavity table")
+
+
 def describe(path) -> dict:
     """Summary of a checkpoint for ``vcavity info``: paths done and planned, config."""
     import h5py
