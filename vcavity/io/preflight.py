@@ -44,8 +44,18 @@ def resolve_output(option: str | None, configured: Path | None, config_file: str
     Raises
     ------
     PreflightError
-        ``-o ""`` or ``-o DIR/`` (a folder, not a file).
+        ``-o ""`` or ``-o DIR/`` (a folder, not a file), or no ``-o`` with a config read
+        from a pipe or special file (``<(cat c.toml)``, ``/dev/stdin``).
     """
+    if option is None and config_file:
+        try:
+            mode = os.stat(config_file).st_mode
+        except OSError:
+            mode = stat.S_IFREG  # read a moment ago; if it is gone, the derived name still stands
+        if not stat.S_ISREG(mode):
+            # /dev/fd/63.h5 or a path relative to /dev/fd: no file name to build on
+            raise PreflightError(f"config file {config_file!r}: is {_kind(mode)}, not a regular file, so the "
+                                 "output cannot be named after it (nor beside it); give the output with -o OUT.h5")
     if option is not None:
         if option == "":
             raise PreflightError("--output = '': must be a file path such as 'table.h5'")
