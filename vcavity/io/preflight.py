@@ -109,8 +109,8 @@ def check_output(out: Output, config_file: str | None, overwrite: bool, source: 
         raise out.fail(f"cannot inspect it ({exc.strerror or exc})") from None
     if info is not None:
         if stat.S_ISLNK(info.st_mode):
-            raise out.fail(f"is a symbolic link (to {os.readlink(path)!r}); the table replaces files "
-                           "atomically, which would replace the link itself: give the target's path")
+            raise out.fail(f"is a symbolic link (to {os.readlink(path)!r}); the output is written by "
+                           "an atomic rename, which would replace the link itself: give the target's path")
         if stat.S_ISDIR(info.st_mode):
             raise out.fail("is a directory; give a file path such as "
                            f"{os.path.join(out.shown, 'table.h5')!r}")
