@@ -12,9 +12,7 @@ from __future__ import annotations
 import datetime
 import json
 import os
-from pathlib import Path
 
-import h5py
 import numpy as np
 
 from vcavity._version import __version__ as _VCAVITY_VERSION
