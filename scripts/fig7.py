@@ -35,6 +35,7 @@ def _parser():
                         help="tables to draw, one panel column each (default: the two fig7 runs)")
     parser.add_argument("-o", "--output", default="fig7.png", metavar="FILE",
                         help="image to write, .png, .pdf or .svg (default fig7.png)")
+    parser.add_argument("--overwrite", action="store_true", help="replace an existing image (atomically)")
     parser.add_argument("--theta-i", nargs="+", metavar="DEG",
                         help="incident angles, one row each (default: every theta_i of the first table)")
     parser.add_argument("--order", nargs="+", metavar="K", default=["1", "2", "inf"],
@@ -75,13 +76,13 @@ def main(argv=None) -> int:
     from matplotlib.figure import Figure
 
     from vcavity.io.table import TableFormatError, open_table
-    from vcavity.plots import PlotError, check_output, check_request, parse_order
+    from vcavity.plots import PlotError, check_output, check_request, parse_order, save
     from vcavity.plots import data as plot_data
     from vcavity.plots import figures
     from vcavity.io.summary import format_material
 
     try:  # what can be checked before running anything
-        output = check_output(args.output)
+        output = check_output(args.output, args.overwrite)
         for k in args.order:
             parse_order(k)
         for t in args.theta_i or ():
@@ -100,7 +101,7 @@ def main(argv=None) -> int:
     theta = args.theta_i or [f"{t:g}" for t in tables[0].theta_i_deg]
     try:
         requests = [check_request(t, "slice", output, theta_i_deg=theta, orders=args.order,
-                                  models=not args.no_models) for t in tables]
+                                  models=not args.no_models, overwrite=args.overwrite) for t in tables]
     except PlotError as exc:
         return _error(str(exc))
 
@@ -118,7 +119,7 @@ def main(argv=None) -> int:
     materials = "; ".join(f"({chr(ord('a') + c)}) {format_material(t.material)}"
                           for c, t in enumerate(tables))
     fig.suptitle(f"IL paper figure 7 from vcavity tables: in-plane slices\n{materials}", fontsize=10)
-    fig.savefig(output, dpi=110)
+    save(fig, output)
     print(f"wrote {output}")
     return 0
 

@@ -3,6 +3,8 @@ exit status 2, one line on stderr naming the field and value, nothing on stdout,
 output file (not even a temporary one). Values just inside the edge run.
 """
 
+import os
+
 import pytest
 
 from vcavity.cli import main
@@ -104,3 +106,38 @@ CONDUCTOR_EDGES = [
 def test_bad_conductor_input_is_a_one_line_error_without_output(tmp_path, capsys, edit, message):
     line = _run_bad(tmp_path, capsys, material={**CONDUCTOR, **edit})
     assert message in line
+
+
+def _piped(text: str, opened: list) -> str:
+    """A config read from a pipe, as ``<(cat c.toml)`` gives it: ``/dev/fd/N`` (N added to ``opened``)."""
+    read, write = os.pipe()
+    os.write(write, text.encode())
+    os.close(write)
+    opened.append(read)
+    return f"/dev/fd/{read}"
+
+
+@pytest.mark.parametrize("command, extra", [("run", ""), ("run", '[output]\npath = "t.h5"\n'),
+                                            ("sweep", "[sweep]\nalpha = [0.3, 0.6]\n")],
+                         ids=["run", "run-output.path", "sweep"])
+def test_a_piped_config_needs_o(tmp_path, capsys, monkeypatch, command, extra):
+    """Without -o the output was named after the pipe (/dev/fd/63.h5) or placed beside it."""
+    if not os.path.isdir("/dev/fd"):
+        pytest.skip("no /dev/fd here")
+    monkeypatch.chdir(tmp_path)
+    text, opened = _write_config(tmp_path).read_text() + extra, []
+    try:
+        config = _piped(text, opened)
+        status = main([command, config, "-q"])
+        captured = capsys.readouterr()
+        assert status == EXIT_BAD_INPUT and captured.out == ""
+        assert captured.err.splitlines() == [
+            f"vcavity: error: config file {config!r}: is a FIFO (named pipe), not a regular file, so the output "
+            "cannot be named after it (nor beside it); give the output with -o OUT.h5"]
+        assert sorted(p.name for p in tmp_path.iterdir()) == ["edge.toml"]
+        assert main([command, _piped(text, opened), "-o", "piped.h5", "-q"]) == 0  # with -o it runs
+    finally:
+        for fd in opened:
+            os.close(fd)
+    if command == "run":
+        assert open_table(tmp_path / "piped.h5").paths.sum() == 2 * 4096

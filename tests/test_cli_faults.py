@@ -26,8 +26,10 @@ import h5py
 import numpy as np
 import pytest
 
+from vcavity import open_table
 from vcavity.cli import main
-from vcavity.io import atomic, writer
+from vcavity.io import atomic, checkpoint, writer
+from vcavity.io.sweep_table import open_sweep
 
 BASE = {"material.distribution": '"beckmann"', "material.alpha": "0.5", "material.kd": "0.5",
         "material.eta": "1.5", "incidence.theta_i_deg": "[0.0, 45.0]", "incidence.paths": "4096",
@@ -243,6 +245,97 @@ def test_full_disk_during_the_write(box, capsys, monkeypatch):
     assert after == before
 
 
+def _disk_full_at(monkeypatch, target, failing_call=1):
+    """Make the byte write of ``target`` ("table" or "checkpoint") fail with ENOSPC on its
+    ``failing_call``-th write, after writing half its bytes (a disk that filled mid-write)."""
+    real, calls = atomic.write_bytes, []
+
+    def write_bytes(temporary, data):
+        is_checkpoint = ".checkpoint." in temporary.name
+        if is_checkpoint == (target == "checkpoint"):
+            calls.append(temporary)
+            if len(calls) == failing_call:
+                real(temporary, data[: len(data) // 2])
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        real(temporary, data)
+
+    monkeypatch.setattr(atomic, "write_bytes", write_bytes)
+
+
+def test_full_disk_writing_the_table_keeps_the_checkpoint(box, capsys, monkeypatch):
+    before = snapshot(box)
+    with monkeypatch.context() as patch:
+        _disk_full_at(patch, "table")
+        status = _run_over_old()
+    captured = capsys.readouterr()
+    error = [line for line in captured.err.splitlines() if "error" in line]
+    assert status == 2 and captured.out == "" and "Traceback" not in captured.err
+    assert len(error) == 1 and ("--output = 'old.h5': writing the table failed (No space left on device); "
+                                "nothing was written") in error[0] and "the checkpoint keeps the run" in error[0]
+    after = snapshot(box)
+    assert after.pop(str(box / "old.h5.checkpoint"))
+    assert after == before  # old table unchanged, no temporary file
+    assert _main(["run", "c.toml", "-o", "old.h5", "--overwrite", "--resume", "-q"]) == 0
+    assert "resuming from old.h5.checkpoint (8,192 of 8,192 paths done)" in capsys.readouterr().err
+
+
+def test_full_disk_writing_a_checkpoint_keeps_the_previous_one(box, capsys, monkeypatch):
+    """Checkpoints every unit of work: the first is saved, the second meets a full disk.
+    The error names the checkpoint, the first checkpoint stays and --resume continues it."""
+    saved = {}
+    real_save = checkpoint.save
+
+    def save(path, *args):
+        if Path(path).exists():  # the file the failing write must leave as it is
+            saved.setdefault("first", Path(path).read_bytes())
+        real_save(path, *args)
+
+    before = snapshot(box)
+    with monkeypatch.context() as patch:
+        patch.setattr(checkpoint, "save", save)
+        _disk_full_at(patch, "checkpoint", failing_call=2)
+        status = _main(RUN + ["--checkpoint-every", "1e-9"])
+    captured = capsys.readouterr()
+    error = [line for line in captured.err.splitlines() if "error" in line]
+    assert status == 2 and captured.out == "" and "Traceback" not in captured.err
+    assert len(error) == 1 and error[0] == (
+        "vcavity: error: --output = 'new.h5': writing the checkpoint 'new.h5.checkpoint' failed (No space "
+        "left on device); no table written, an existing file is unchanged; the previous checkpoint is unchanged")
+    after = snapshot(box)
+    assert (box / "new.h5.checkpoint").read_bytes() == saved["first"]
+    after.pop(str(box / "new.h5.checkpoint"))
+    assert after == before  # no table, no temporary file
+    assert _main(RUN + ["--resume"]) == 0
+    assert "resuming from new.h5.checkpoint (4,096 of 8,192 paths done)" in capsys.readouterr().err
+
+
+def test_full_disk_in_a_sweep_is_one_line(box, capsys, monkeypatch):
+    (box / "s.toml").write_text(toml({"incidence.theta_i_deg": None}, "[sweep]\nalpha = [0.3, 0.6]\n"
+                                                                     "theta_i_deg = [0]\n"))
+    _disk_full_at(monkeypatch, "table", failing_call=2)  # the first point is written, the second not
+    before = snapshot(box)
+    status = _main(["sweep", "s.toml", "-o", "s.h5", "-q"])
+    captured = capsys.readouterr()
+    error = [line for line in captured.err.splitlines() if "error" in line]
+    assert status == 2 and captured.out == "" and "Traceback" not in captured.err
+    assert error == ["vcavity: error: --output = 's.h5': writing the sweep failed (No space left on device); "
+                     "the file holds the points finished before"]
+    after = snapshot(box)
+    assert after.pop(str(box / "s.h5"))  # one point done, for --resume; no temporary file
+    assert after == before
+    assert list(open_sweep(box / "s.h5").data["done"]) == [1, 0]
+
+
+def test_a_failed_byte_write_leaves_the_old_file_and_no_temporary(tmp_path, monkeypatch):
+    old = tmp_path / "t.h5"
+    old.write_bytes(b"the old file")
+    _disk_full_at(monkeypatch, "table")
+    with pytest.raises(OSError) as info:
+        atomic.write_hdf5(old, lambda h5: h5.create_dataset("x", data=np.arange(1000)))
+    assert info.value.errno == errno.ENOSPC
+    assert old.read_bytes() == b"the old file" and os.listdir(tmp_path) == ["t.h5"]
+
+
 @pytest.mark.parametrize("swallowed", [False, True], ids=["raised", "swallowed-by-h5py"])
 def test_ctrl_c_during_the_write_keeps_the_old_table(box, capsys, monkeypatch, swallowed):
     """SIGINT while the file is written: exit 130, one line, old table and folder unchanged.
@@ -327,7 +420,6 @@ def test_overwrite_replaces_and_integral_float_paths_are_counts(box, capsys):
     (box / "f.toml").write_text(toml({"incidence.paths": "2000.0"}))
     assert _main(["run", "f.toml", "-o", "f.h5", "-q"]) == 0
     capsys.readouterr()
-    from vcavity import open_table
 
     flag, toml_float = open_table(box / "old.h5"), open_table(box / "f.h5")
     assert list(flag.paths) == list(toml_float.paths) == [2000, 2000]
@@ -428,6 +520,80 @@ def test_refused_in_a_shell_every_case(box, case):
     if case[0] in ("proc", "sys") and not os.path.isdir(f"/{case[0]}"):
         pytest.skip("no such folder here")
     _refused_in_a_shell(box, *case[1:])
+
+
+@pytest.fixture
+def small_disk(tmp_path):
+    """A 256 kB tmpfs (root only): a real disk that fills up."""
+    if os.geteuid() != 0:
+        pytest.skip("mounting a tmpfs needs root")
+    mount = tmp_path / "disk"
+    mount.mkdir()
+    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount)],
+                          capture_output=True, text=True)
+    if done.returncode != 0:
+        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
+    yield mount
+    subprocess.run(["umount", str(mount)], check=True)
+
+
+def _leave_free(folder, n_bytes):
+    """Fill ``folder``'s file system (with real pages: tmpfs keeps no holes) up to ``n_bytes`` free."""
+    usage = os.statvfs(folder)
+    with open(folder / "filler", "ab") as filler:
+        filler.write(b"\0" * max(0, usage.f_bavail * usage.f_frsize - n_bytes))
+
+
+# the disk fills after the free-space check: something else wrote meanwhile
+_NO_SPACE_CHECK = ("import sys; from vcavity.io import preflight; "
+                   "preflight.check_disk_space = lambda out, needed: None; "
+                   "from vcavity.cli import main; sys.exit(main(sys.argv[1:]))")
+
+
+def test_a_disk_that_fills_up(small_disk, good_table):
+    """On a real full disk: the table (55 kB) and then the checkpoint (15 kB) fail, each in one
+    line naming it, exit 2, no temporary file, old files unchanged; --resume then finishes."""
+    (small_disk / "c.toml").write_text(toml())
+    (small_disk / "old.h5").write_bytes(b"an older table\n" * 64)
+
+    def run(*flags):
+        done = subprocess.run([sys.executable, "-c", _NO_SPACE_CHECK, "run", "c.toml", "-o", "old.h5", "-q",
+                               "--overwrite", *flags], cwd=small_disk, capture_output=True, text=True)
+        assert "Traceback" not in done.stderr and "HDF5" not in done.stderr, done.stderr
+        return done.returncode, [line for line in done.stderr.splitlines() if "error" in line]
+
+    _leave_free(small_disk, 32 * 1024)
+    before = snapshot(small_disk)
+    status, error = run()
+    assert status == 2 and len(error) == 1, error
+    assert "--output = 'old.h5': writing the table failed (No space left on device)" in error[0]
+    after = snapshot(small_disk)
+    kept = after.pop(str(small_disk / "old.h5.checkpoint"))
+    assert after == before
+    _leave_free(small_disk, 8 * 1024)
+    before = snapshot(small_disk)
+    status, error = run("--resume")
+    assert status == 2 and len(error) == 1, error
+    assert error[0].endswith("writing the checkpoint 'old.h5.checkpoint' failed (No space left on device); no "
+                             "table written, an existing file is unchanged; the previous checkpoint is unchanged")
+    assert snapshot(small_disk) == before and before[str(small_disk / "old.h5.checkpoint")] == kept
+    (small_disk / "filler").unlink()
+    assert run("--resume") == (0, [])
+    assert np.array_equal(open_table(small_disk / "old.h5").counts, open_table(good_table).counts)
+
+
+def test_a_sweep_on_a_full_disk(small_disk):
+    (small_disk / "s.toml").write_text(toml({"incidence.theta_i_deg": None}, "[sweep]\nalpha = [0.3, 0.6]\n"
+                                                                            "theta_i_deg = [0]\n"))
+    _leave_free(small_disk, 8 * 1024)
+    before = snapshot(small_disk)
+    done = subprocess.run([sys.executable, "-c", _NO_SPACE_CHECK, "sweep", "s.toml", "-o", "s.h5", "-q"],
+                          cwd=small_disk, capture_output=True, text=True)
+    error = [line for line in done.stderr.splitlines() if "error" in line]
+    assert done.returncode == 2 and "Traceback" not in done.stderr and "HDF5" not in done.stderr, done.stderr
+    assert error == ["vcavity: error: --output = 's.h5': writing the sweep failed (No space left on device); "
+                     "nothing was written"]
+    assert snapshot(small_disk) == before
 
 
 def _interrupt(argv, cwd, wait_for, delay, env=None):

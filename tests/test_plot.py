@@ -7,6 +7,9 @@ Tables are made once per module by tiny runs of Beckmann + interfaced Lambertian
 """
 
 import importlib.util
+import os
+import shutil
+import stat
 import subprocess
 import sys
 from pathlib import Path
@@ -176,6 +179,62 @@ def test_bad_input_is_one_line_exit_2_and_writes_nothing(tables, tmp_path, capsy
     assert sorted(tables["fig7b"].parent.iterdir()) == before and list(tmp_path.iterdir()) == []
 
 
+def _snapshot(folder):
+    """Each entry of ``folder``: a link's target, a file's bytes, else its kind (links not followed)."""
+    seen = {}
+    for entry in sorted(folder.iterdir()):
+        mode = stat.S_IFMT(entry.lstat().st_mode)
+        seen[entry.name] = (os.readlink(entry) if mode == stat.S_IFLNK else
+                            entry.read_bytes() if mode == stat.S_IFREG else mode)
+    return seen
+
+
+@pytest.fixture
+def plot_box(tables, tmp_path):
+    """A table, old images, a link, a FIFO and a folder named like images, the table as t.png."""
+    shutil.copyfile(tables["fig7b"], tmp_path / "t.h5")
+    os.link(tmp_path / "t.h5", tmp_path / "t.png")  # a table whose name ends in .png
+    (tmp_path / "old.png").write_bytes(b"an older image")
+    (tmp_path / "t_albedo.png").write_bytes(b"an older default image")
+    os.symlink("old.png", tmp_path / "link.png")
+    os.mkfifo(tmp_path / "fifo.png")
+    (tmp_path / "d.png").mkdir()
+    return tmp_path
+
+
+OUTPUT_RULES = [
+    (["t.h5", "-o", "link.png", "--overwrite"], "-o = 'link.png': is a symbolic link (to 'old.png')"),
+    (["t.h5", "-o", "fifo.png", "--overwrite"], "-o = 'fifo.png': exists and is a FIFO (named pipe)"),
+    (["t.h5", "-o", "d.png", "--overwrite"], "-o = 'd.png': is a directory"),
+    (["t.png", "-o", "t.png", "--overwrite"], "-o = 't.png': is the input 't.png' itself"),
+    (["t.h5", "-o", "t.png", "--overwrite"], "-o = 't.png': is the input 't.h5' itself"),  # a hard link
+    (["t.h5", "-o", "old.png"], "-o = 'old.png': exists; pass --overwrite to replace it"),
+    (["t.h5"], "output (default: <input>_albedo.png beside the input) = 't_albedo.png': exists; pass --overwrite"),
+]
+
+
+@pytest.mark.parametrize("arguments, message", OUTPUT_RULES, ids=[" ".join(a) for a, _ in OUTPUT_RULES])
+def test_the_output_rules_of_run_and_export(plot_box, monkeypatch, arguments, message):
+    """As a shell sees it (a FIFO once blocked or gave a traceback): exit 2, one line, nothing touched."""
+    monkeypatch.chdir(plot_box)
+    before = _snapshot(plot_box)
+    done = subprocess.run([sys.executable, "-m", "vcavity.cli", "plot", *arguments, "--kind", "albedo"],
+                          cwd=plot_box, capture_output=True, text=True, timeout=120)
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(f"vcavity: error: {message}"), lines
+    assert _snapshot(plot_box) == before
+
+
+def test_overwrite_replaces_a_file_atomically(plot_box, monkeypatch, capsys):
+    monkeypatch.chdir(plot_box)
+    assert main(["plot", "t.h5", "--kind", "albedo", "-o", "old.png", "--overwrite"]) == 0
+    assert capsys.readouterr().out.strip() == "wrote old.png"
+    assert_png(plot_box / "old.png")
+    assert os.readlink("link.png") == "old.png" and (plot_box / "t.png").read_bytes()[:4] == b"\x89HDF"
+    assert not [p for p in os.listdir(plot_box) if p.endswith(".tmp")]
+
+
 def test_table_without_f_inf_and_missing_table(tables, tmp_path, capsys):
     assert main(["plot", str(tables["f_only"]), "--order", "inf"]) == 2
     assert "track_all_orders = true" in capsys.readouterr().err
@@ -203,5 +262,5 @@ def test_fig7_script(tables, tmp_path, capsys):
     assert fig7.main([str(tables["fig7b"]), str(tables["sharp"]), "--theta-i", "60", "-o", str(out)]) == 0
     assert_png(out)
     assert fig7.main([str(tables["fig7b"]), "-o", str(tmp_path / "no" / "f.png")]) == 2
-    assert fig7.main([str(tables["f_only"]), "-o", str(out)]) == 2  # default orders include f_inf
+    assert fig7.main([str(tables["f_only"]), "-o", str(out), "--overwrite"]) == 2  # default orders include f_inf
     assert "fig7: error: --order = f_inf" in capsys.readouterr().err

@@ -6,6 +6,8 @@ Processes start in their own process group (start_new_session), so SIGINT reache
 as a terminal's Ctrl-C would. Moments are drawn from a seeded generator.
 """
 
+import errno
+import hashlib
 import os
 import random
 import signal
@@ -17,8 +19,8 @@ import numpy as np
 import pytest
 
 from vcavity import open_table
-
-from vcavity.io import checkpoint
+from vcavity.cli import main
+from vcavity.io import checkpoint, writer
 
 CONFIG = """
 [material]
@@ -135,3 +137,54 @@ def test_sigkill_during_compilation_then_resume(tmp_path, setup):
     assert code == 0, err
     assert "no checkpoint" in err
     _same_tables(reference, out)
+
+
+SMALL = CONFIG.format(paths=4096).replace("sensor_resolution = 21", "sensor_resolution = 9")
+
+
+def _files(folder):
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(folder.iterdir())}
+
+
+@pytest.fixture
+def left_a_checkpoint(tmp_path, monkeypatch, capsys):
+    """run.toml ran to its end, but the table write failed: out.h5.checkpoint holds the run."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "run.toml").write_text(SMALL)
+    (tmp_path / "other.toml").write_text(SMALL.replace("seed = 4", "seed = 5"))
+    (tmp_path / "sweep.toml").write_text(SMALL.replace("theta_i_deg = [30, 65]", "") + "[sweep]\nalpha = [0.6]\n"
+                                                                                      "theta_i_deg = [30]\n")
+    assert main(["run", "other.toml", "-o", "other.h5", "-q"]) == 0
+    assert main(["sweep", "sweep.toml", "-o", "sweep.h5", "-q"]) == 0
+    assert main(["run", "run.toml", "-o", "own.h5", "-q"]) == 0
+
+    def full(h5, values):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    with monkeypatch.context() as patch:
+        patch.setattr(writer, "_write_datasets", full)
+        assert main(["run", "run.toml", "-o", "out.h5", "-q"]) == 2
+    assert checkpoint.checkpoint_path(tmp_path / "out.h5").is_file()
+    capsys.readouterr()
+    return tmp_path
+
+
+@pytest.mark.parametrize("placed, what", [("sweep.h5", "a sweep file"),
+                                          ("other.h5", "a table of another run (its config or seed differs)"),
+                                          ("run.toml", "not a vcavity table")])
+def test_resume_replaces_only_its_own_table(left_a_checkpoint, capsys, placed, what):
+    folder = left_a_checkpoint
+    (folder / "out.h5").write_bytes((folder / placed).read_bytes())  # put there after the interruption
+    before = _files(folder)
+    assert main(["run", "run.toml", "-o", "out.h5", "-q", "--resume"]) == 2
+    captured = capsys.readouterr()
+    assert captured.out == "" and captured.err.splitlines() == [
+        f"vcavity: error: --output = 'out.h5': exists and is {what}; --resume replaces only the table of this "
+        "run: pass --overwrite to replace it"]
+    assert _files(folder) == before
+    # its own table (killed between the table's rename and the checkpoint's removal) it replaces
+    (folder / "out.h5").write_bytes((folder / "own.h5").read_bytes())
+    assert main(["run", "run.toml", "-o", "out.h5", "-q", "--resume"]) == 0
+    assert "resuming from out.h5.checkpoint" in capsys.readouterr().err
+    assert not checkpoint.checkpoint_path(folder / "out.h5").exists()
+    _same_tables(folder / "own.h5", folder / "out.h5")

@@ -87,9 +87,7 @@ def command(args: argparse.Namespace) -> int:
         return error(f"FILE = {args.output!r}: must name a file, such as {example}")
     out = preflight.Output(Path(args.output), "FILE", args.output)
     try:
-        if out.path.is_file() and os.path.samefile(out.path, source_path):
-            raise out.fail(f"is the input {args.table!r} itself; give the export another name, such as {example}")
-        preflight.check_output(out, None, args.overwrite)
+        preflight.check_output(out, None, args.overwrite, source=args.table)
         preflight.probe_output(out)
     except preflight.PreflightError as exc:
         return error(str(exc))

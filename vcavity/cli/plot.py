@@ -46,7 +46,8 @@ def add_parser(subparsers) -> None:
         "(albedo against roughness) (PNG, PDF, SVG)",
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
-        "folder) is a one-line error with exit status 2, reported before anything is computed.",
+        "folder, an existing file without --overwrite, a link, FIFO or the input itself) is a one-line "
+        "error with exit status 2, reported before anything is computed; the image is written atomically.",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     plot.set_defaults(handler=command)
     plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run, or a sweep file "
@@ -56,6 +57,9 @@ def add_parser(subparsers) -> None:
                       "(see below)")
     plot.add_argument("-o", "--output", metavar="FILE",
                       help="image to write, .png, .pdf or .svg (default: <table>_<kind>.png beside the table)")
+    plot.add_argument("--overwrite", action="store_true",
+                      help="replace an existing image (atomically); links, FIFOs, folders and the input "
+                      "itself never are")
     plot.add_argument("--theta-i", nargs="+", metavar="DEG",
                       help="incident polar angles to draw, degrees as in the run config (default: all)")
     plot.add_argument("--order", nargs="+", metavar="K",
@@ -79,7 +83,8 @@ def command(args: argparse.Namespace) -> int:
         return EXIT_BAD_INPUT
     try:
         request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
-                                orders=args.order, scale=args.scale, models=not args.no_models)
+                                orders=args.order, scale=args.scale, models=not args.no_models,
+                                overwrite=args.overwrite)
     except PlotError as exc:
         return error(str(exc))
     render(table, request)

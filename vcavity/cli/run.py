@@ -78,7 +78,8 @@ def add_parser(subparsers) -> None:
                      help="with --target-error: the most paths per direction (default: the config's paths)")
     run.add_argument("--resume", action="store_true",
                      help="continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same "
-                     "config and seed; the table equals an uninterrupted run's, bit for bit)")
+                     "config and seed; the table equals an uninterrupted run's, bit for bit); a file at OUT.h5 is "
+                     "replaced only if it is this run's own table, else only with --overwrite")
     run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
                      help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
                      "saves it too and exits 130; removed once the table is written")
@@ -218,13 +219,20 @@ def preflight(args: argparse.Namespace, cfg):
     import numba
 
     from vcavity.io import preflight as checks
-    from vcavity.io.checkpoint import checkpoint_path
+    from vcavity.io.checkpoint import checkpoint_path, foreign_output
     from vcavity.sensor.grid import EqualAreaSensor
 
     try:
         out = checks.resolve_output(args.output, cfg.output, args.config)
         resuming = bool(getattr(args, "resume", False)) and checkpoint_path(out.path).exists()
         checks.check_output(out, args.config, args.overwrite or resuming)
+        # without --overwrite, resume replaces only its own run's table (say, written just
+        # before a kill that left the checkpoint): never what was put there meanwhile
+        what = (foreign_output(out.path, cfg.to_dict()) if resuming and not args.overwrite
+                and out.path.is_file() else None)
+        if what is not None:
+            raise out.fail(f"exists and is {what}; --resume replaces only the table of this run: "
+                           "pass --overwrite to replace it")
         if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
             raise checks.PreflightError(f"--threads = {args.threads}: must be between 1 and "
                                         f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
@@ -319,10 +327,11 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
     Raises
     ------
     BadInput
-        An unusable ``--dask`` address, or a table write that failed.
+        An unusable ``--dask`` address, or a table or checkpoint write that failed.
     """
     import dataclasses
 
+    from vcavity.io.checkpoint import CheckpointWriteError
     from vcavity.io.writer import write_result
     from vcavity.simulate import driver
 
@@ -339,6 +348,10 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
         result = driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
                                      quiet=args.quiet, executor=executor)
         return (EXIT_INTERRUPTED, None) if result is None else (EXIT_OK, result)
+    except CheckpointWriteError as exc:
+        kept = ("the previous checkpoint is unchanged" if exc.previous else "no checkpoint was kept")
+        raise BadInput(f"{output.field} = {output.shown!r}: {exc}; no table written, an existing file is "
+                       f"unchanged; {kept}") from None
     except OSError as exc:
         reason = exc.strerror or first_line(exc)
         raise BadInput(f"{output.field} = {output.shown!r}: writing the table failed ({reason}); "

@@ -143,8 +143,8 @@ def _trace(args, spec, output, data, executor, total) -> int:
                           f"({data.n_done()} point(s) done are in {output.path})")
         except OSError as exc:
             reason = exc.strerror or first_line(exc)
-            return error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); "
-                          "the file holds the points finished before")
+            kept = "the file holds the points finished before" if output.path.exists() else "nothing was written"
+            return error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); {kept}")
         finally:
             if bar is not None:
                 bar.close()

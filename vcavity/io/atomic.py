@@ -1,4 +1,4 @@
-"""Atomic file replacement and the temporary files it uses (tables; checkpoints may share it).
+"""Atomic file replacement and the temporary files it uses (tables, sweeps, checkpoints, plots).
 
 A file is written to a hidden temporary file in its destination folder, flushed, fsynced
 and renamed onto the destination (``os.replace`` is atomic within one file system), so a
@@ -8,6 +8,12 @@ reader sees the old file or the complete new one, never a partial file; on any f
 Temporary files are named ``.NAME.<pid>-<host>.<random>.tmp`` beside ``NAME``: the pid
 and a tag of the host let a later run tell a leftover of a killed writer (kill -9, power
 loss) from the file of a writer still running, and remove only the former.
+
+HDF5 files (tables, sweep files, checkpoints) go through :func:`write_hdf5`: h5py builds
+the whole file in memory and plain file I/O writes its bytes. HDF5 writing to a disk that
+fills up reported "Can't close dataset" tracebacks, left open handles behind and could
+crash the interpreter at exit (SIGSEGV); a full disk here is an ordinary ``OSError``
+raised by :func:`write_bytes`, with the temporary file removed.
 """
 
 from __future__ import annotations
@@ -98,6 +104,48 @@ def replace_atomically(path, fill: Callable[[Path], None],
         pass
 
 
+def write_bytes(temporary: Path, data: bytes) -> None:
+    """Write ``data`` into the file ``temporary`` (plain file I/O: a full disk is an ``OSError``)."""
+    with open(temporary, "wb") as stream:
+        stream.write(data)
+
+
+def write_hdf5(path, build: Callable, cancelled: Callable[[], bool] | None = None, **options) -> None:
+    """Write an HDF5 file atomically: ``build(h5)`` in memory, then its bytes to ``path``.
+
+    The file is built with h5py's ``core`` driver (``backing_store=False``: nothing touches
+    the disk), its image written by :func:`write_bytes` into a temporary file beside
+    ``path``, fsynced and renamed (:func:`replace_atomically`).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The destination; an existing file there is replaced only on success.
+    build : callable
+        ``build(h5)`` fills the open, empty ``h5py.File``.
+    cancelled : callable, optional
+        As in :func:`replace_atomically`: asked just before the rename.
+    **options
+        Further ``h5py.File`` arguments (``track_order=True``).
+
+    Raises
+    ------
+    KeyboardInterrupt
+        ``cancelled()`` returned True; ``path`` is untouched.
+    OSError
+        Writing failed (disk full, ...); ``path`` is untouched, no temporary file is left.
+    """
+    import h5py  # here, not at the top: preflight imports this module and must not load h5py
+
+    # the name only identifies the in-memory file; unique, so no two can collide in HDF5
+    name = f"vcavity-image-{os.getpid()}-{secrets.token_hex(8)}.h5"
+    with h5py.File(name, "w", driver="core", backing_store=False, **options) as h5:
+        build(h5)
+        h5.flush()
+        image = h5.id.get_file_image()
+    replace_atomically(path, lambda temporary: write_bytes(temporary, image), cancelled=cancelled)
+
+
 def _pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -165,4 +213,4 @@ def _fsync(path: Path) -> None:
 
 
 __all__ = ["STALE_AGE_S", "create_temporary", "probe_destination", "remove_stale_temporaries",
-           "replace_atomically"]
+           "replace_atomically", "write_bytes", "write_hdf5"]

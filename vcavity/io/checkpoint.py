@@ -29,6 +29,24 @@ class CheckpointError(ValueError):
     """A checkpoint cannot be used (unreadable, corrupted, or of another run); one line."""
 
 
+class CheckpointWriteError(Exception):
+    """Saving a checkpoint failed (disk full, ...); nothing was replaced.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The checkpoint that could not be written.
+    previous : bool
+        Whether an earlier checkpoint is at ``path`` (unchanged: the write is atomic).
+    reason : str
+        Why, in a few words (``No space left on device``).
+    """
+
+    def __init__(self, path: Path, previous: bool, reason: str):
+        super().__init__(f"writing the checkpoint {str(path)!r} failed ({reason})")
+        self.path, self.previous, self.reason = path, previous, reason
+
+
 @dataclass
 class RunState:
     """Progress of a run (see module doc); arrays are updated in place while it runs."""
@@ -63,27 +81,31 @@ def _payload_digest(state: RunState, config_json: str) -> str:
 
 
 def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planned: int) -> None:
-    """Write ``state`` atomically to ``path`` (temporary file, fsync, ``os.replace``; the
-    temporary names and their cleanup are those of tables, :mod:`vcavity.io.atomic`)."""
-    import h5py
+    """Write ``state`` atomically to ``path`` (:func:`vcavity.io.atomic.write_hdf5`: built in
+    memory, temporary file, fsync, ``os.replace``; names and cleanup those of tables).
 
-    from vcavity.io.atomic import remove_stale_temporaries, replace_atomically
+    Raises
+    ------
+    OSError
+        The file could not be written (disk full, ...); a checkpoint already at ``path`` is
+        unchanged and no temporary file is left.
+    """
+    from vcavity.io.atomic import remove_stale_temporaries, write_hdf5
 
     config_json = json.dumps(config_dict, sort_keys=True, default=str)
 
-    def fill(temporary):
-        with h5py.File(temporary, "w") as h5:
-            h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
-                             "config": config_json, "config_digest": config_digest(config_dict),
-                             "payload_sha256": _payload_digest(state, config_json),
-                             "compute_time_s": float(state.compute_time_s),
-                             "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
-            for name in _ARRAYS:
-                array = getattr(state, name)
-                h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
+    def build(h5):
+        h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
+                         "config": config_json, "config_digest": config_digest(config_dict),
+                         "payload_sha256": _payload_digest(state, config_json),
+                         "compute_time_s": float(state.compute_time_s),
+                         "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
+        for name in _ARRAYS:
+            array = getattr(state, name)
+            h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
 
     remove_stale_temporaries(path)
-    replace_atomically(Path(path), fill)
+    write_hdf5(Path(path), build)
 
 
 def load(path, config_dict: dict) -> RunState:
@@ -122,6 +144,37 @@ def load(path, config_dict: dict) -> RunState:
         raise CheckpointError(f"checkpoint {str(path)!r} belongs to another run (its config or seed differs); "
                               "resume with the same config and --seed, or start afresh with --overwrite")
     return state
+
+
+def foreign_output(path, config_dict: dict) -> str | None:
+    """What the regular file ``path`` is, unless it is a table of the run ``config_dict``.
+
+    ``--resume`` may replace the table its own run wrote (same configuration and seed:
+    the table was renamed into place, the checkpoint not yet removed), nothing else.
+
+    Returns
+    -------
+    str or None
+        None for a table of this run; else what the file is, for a one-line refusal
+        (``"a sweep file"``, ``"a table of another run (...)"``, ``"not a vcavity table"``).
+    """
+    import h5py
+
+    from vcavity.io import schema
+
+    try:
+        with h5py.File(path, "r") as h5:
+            kind, stored = h5.attrs.get("format"), h5.attrs.get("config")
+    except OSError:
+        return "not a vcavity table"
+    kind = kind.decode() if isinstance(kind, bytes) else kind
+    if kind == schema.FORMAT_NAME:
+        try:
+            same = config_digest(json.loads(str(stored))) == config_digest(config_dict)
+        except (TypeError, ValueError, AttributeError):
+            same = False
+        return None if same else "a table of another run (its config or seed differs)"
+    return {"vcavity-sweep": "a sweep file", FORMAT_NAME: "a checkpoint"}.get(kind, "not a vcavity table")
 
 
 def describe(path) -> dict:

@@ -44,8 +44,18 @@ def resolve_output(option: str | None, configured: Path | None, config_file: str
     Raises
     ------
     PreflightError
-        ``-o ""`` or ``-o DIR/`` (a folder, not a file).
+        ``-o ""`` or ``-o DIR/`` (a folder, not a file), or no ``-o`` with a config read
+        from a pipe or special file (``<(cat c.toml)``, ``/dev/stdin``).
     """
+    if option is None and config_file:
+        try:
+            mode = os.stat(config_file).st_mode
+        except OSError:
+            mode = stat.S_IFREG  # read a moment ago; if it is gone, the derived name still stands
+        if not stat.S_ISREG(mode):
+            # /dev/fd/63.h5 or a path relative to /dev/fd: no file name to build on
+            raise PreflightError(f"config file {config_file!r}: is {_kind(mode)}, not a regular file, so the "
+                                 "output cannot be named after it (nor beside it); give the output with -o OUT.h5")
     if option is not None:
         if option == "":
             raise PreflightError("--output = '': must be a file path such as 'table.h5'")
@@ -74,12 +84,14 @@ def _kind(mode: int) -> str:
     return "not a regular file"
 
 
-def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
+def check_output(out: Output, config_file: str | None, overwrite: bool, source: str | None = None) -> None:
     """Refuse an output the atomic rename must not replace, or cannot create.
 
     An existing link, folder, FIFO or device is never replaced (the rename would replace
-    the node itself); the run config is never the table, whatever path names it (same
-    file, compared with ``os.path.samefile``); an existing table only with ``--overwrite``.
+    the node itself); the run config or the command's input file (``source``: the table
+    ``export`` or ``plot`` reads) is never the output, whatever path names it (same file,
+    compared with ``os.path.samefile``); an existing file only with ``--overwrite``.
+    ``run``, ``sweep``, ``export`` and ``plot`` all check their output here.
 
     Raises
     ------
@@ -97,8 +109,8 @@ def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
         raise out.fail(f"cannot inspect it ({exc.strerror or exc})") from None
     if info is not None:
         if stat.S_ISLNK(info.st_mode):
-            raise out.fail(f"is a symbolic link (to {os.readlink(path)!r}); the table replaces files "
-                           "atomically, which would replace the link itself: give the target's path")
+            raise out.fail(f"is a symbolic link (to {os.readlink(path)!r}); the output is written by "
+                           "an atomic rename, which would replace the link itself: give the target's path")
         if stat.S_ISDIR(info.st_mode):
             raise out.fail("is a directory; give a file path such as "
                            f"{os.path.join(out.shown, 'table.h5')!r}")
@@ -107,6 +119,8 @@ def check_output(out: Output, config_file: str | None, overwrite: bool) -> None:
         if config_file is not None and os.path.samefile(path, config_file):
             raise out.fail(f"is the run config {config_file!r} itself; give the table another name "
                            "(-o OUT.h5)")
+        if source is not None and os.path.exists(source) and os.path.samefile(path, source):
+            raise out.fail(f"is the input {source!r} itself; give the output another name")
         if not overwrite:
             raise out.fail("exists; pass --overwrite to replace it (atomically, once the new file is complete)")
     _check_folder(out)

@@ -17,7 +17,7 @@ points not yet done are NaN (floats) or 0 (integers) with ``done = 0``.
 
 Like the other files of vcavity this module imports h5py and no Numba (``vcavity info``
 reads a sweep without compiling anything); files are always written whole and atomically
-(:func:`vcavity.io.atomic.replace_atomically`).
+(:func:`vcavity.io.atomic.write_hdf5`).
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ import numpy as np
 
 from vcavity._version import __version__ as _VCAVITY_VERSION
 from vcavity.io import schema
-from vcavity.io.atomic import replace_atomically
+from vcavity.io.atomic import write_hdf5
 
 FORMAT_NAME = "vcavity-sweep"
 FORMAT_VERSION = 1
@@ -246,11 +246,7 @@ def write_sweep(path, sweep: SweepData) -> None:
     OSError
         The file could not be written; ``path`` is untouched, no temporary file is left.
     """
-    def fill(temporary: Path) -> None:
-        with h5py.File(temporary, "w", track_order=True) as h5:
-            _fill(h5, sweep)
-
-    replace_atomically(path, fill)
+    write_hdf5(path, lambda h5: _fill(h5, sweep), track_order=True)
 
 
 def _text(value):

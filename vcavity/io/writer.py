@@ -12,14 +12,12 @@ from __future__ import annotations
 import datetime
 import json
 import os
-from pathlib import Path
 
-import h5py
 import numpy as np
 
 from vcavity._version import __version__ as _VCAVITY_VERSION
 from vcavity.io import schema
-from vcavity.io.atomic import replace_atomically
+from vcavity.io.atomic import write_hdf5
 
 
 def _as_int64(name: str, value, shape_ndim: int) -> np.ndarray:
@@ -235,7 +233,7 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
     ``brdf = counts / (paths Ω⊥_c)``, ``brdf_stderr = sqrt(counts (1 - counts/paths)) /
     (paths Ω⊥_c)``, ``albedo = Σ_c counts / paths`` (= Σ_c brdf Ω⊥_c) and each fraction =
     its path count / paths. The file is written to a temporary file in the destination
-    directory, fsynced and renamed onto ``path`` (:func:`vcavity.io.atomic.replace_atomically`);
+    directory, fsynced and renamed onto ``path`` (:func:`vcavity.io.atomic.write_hdf5`);
     on any failure the temporary file is removed and an existing file at ``path`` is left
     untouched.
 
@@ -322,15 +320,14 @@ def write_table(path, *, theta_i, phi_i, order, counts, paths, absorbed_paths,
     if tabulated is not None:
         values.update(_tabulated(tabulated, values))
 
-    def fill(temporary: Path) -> None:
-        # Creation order tracked everywhere: readers list datasets and attributes in the
-        # order written, and older netCDF-C versions require it.
-        with h5py.File(temporary, "w", track_order=True) as h5:
-            h5.attrs.update(root_attrs)
-            _write_datasets(h5, values)
-            _write_material(h5, material)
+    def build(h5) -> None:
+        h5.attrs.update(root_attrs)
+        _write_datasets(h5, values)
+        _write_material(h5, material)
 
-    replace_atomically(path, fill, cancelled=cancelled)
+    # Creation order tracked everywhere: readers list datasets and attributes in the
+    # order written, and older netCDF-C versions require it.
+    write_hdf5(path, build, cancelled=cancelled, track_order=True)
 
 
 def write_result(path, result, config, cancelled=None) -> None:

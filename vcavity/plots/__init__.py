@@ -36,8 +36,10 @@ from vcavity.plots.request import (
     PlotError,
     PlotRequest,
     check_output,
+    default_field,
     default_output,
     parse_order,
+    save,
     select_theta,
     sort_orders,
 )
@@ -79,10 +81,9 @@ def check_scale(kind: str, scale: str | None) -> None:
                         f"{_spoken(list(accepted), 'or')}")
 
 
-def _check_table_request(table, module, output, theta_i_deg, orders, scale, models) -> PlotRequest:
+def _check_table_request(table, module, output, theta_i_deg, orders, scale, models, overwrite) -> PlotRequest:
     """The request of a kind that draws a table of one run (``SOURCE = "table"``)."""
     kind = module.NAME
-    out = check_output(output if output is not None else default_output(table, kind))
     present = [int(k) for k in table.order]
     if orders:
         chosen = tuple(dict.fromkeys(parse_order(o) for o in orders))
@@ -107,12 +108,17 @@ def _check_table_request(table, module, output, theta_i_deg, orders, scale, mode
         except ModelNotApplicable as exc:
             raise PlotError(f"{str(exc).splitlines()[0]} (use --no-models to plot the table alone)") from None
         chosen_models = tuple(module.MODELS)
+    # the output last: what to draw is reported first, whatever the output's state
+    if output is None:
+        out = check_output(default_output(table, kind), overwrite, table.path, default_field(kind))
+    else:
+        out = check_output(output, overwrite, table.path)
     return PlotRequest(kind=kind, output=out, indices=tuple(indices), orders=chosen,
                        scale=scale or module.DEFAULT_SCALE, models=chosen_models)
 
 
 def check_request(table, kind: str | None = None, output=None, theta_i_deg=None, orders=None,
-                  scale: str | None = None, models: bool = True) -> PlotRequest:
+                  scale: str | None = None, models: bool = True, overwrite: bool = False) -> PlotRequest:
     """Check a plot request against a table (or a sweep) without computing anything.
 
     Parameters
@@ -133,6 +139,9 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
         Value axis of slices and colour scale of maps; default :data:`DEFAULT_SCALE`.
     models : bool
         Slices: overlay the single-bounce models of f1.
+    overwrite : bool
+        Replace an existing output file (``--overwrite``); links, FIFOs, folders and the
+        input itself never are (:func:`~vcavity.plots.request.check_output`).
 
     Returns
     -------
@@ -159,21 +168,21 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
                         f"file (vcavity sweep); a table takes {_spoken(table_kinds, 'or')}")
     check_scale(kind, scale)
     if module.SOURCE == "sweep":
-        return module.check(table, output, theta_i_deg, orders, scale)
-    return _check_table_request(table, module, output, theta_i_deg, orders, scale, models)
+        return module.check(table, output, theta_i_deg, orders, scale, overwrite)
+    return _check_table_request(table, module, output, theta_i_deg, orders, scale, models, overwrite)
 
 
 def render(table, request: PlotRequest):
-    """Draw and save a checked request; returns the plotted data (module docstring)."""
+    """Draw and save (atomically) a checked request; returns the plotted data (module docstring)."""
     fig, result = KIND_MODULES[request.kind].render(table, request)
-    fig.savefig(request.output, dpi=110)
+    save(fig, request.output)
     return result
 
 
 def plot_table(table, kind: str | None = None, output=None, **options):
     """Check, draw and save one plot of ``table``; returns the plotted data.
 
-    ``options``: ``theta_i_deg``, ``orders``, ``scale``, ``models`` as in
+    ``options``: ``theta_i_deg``, ``orders``, ``scale``, ``models``, ``overwrite`` as in
     :func:`check_request`. ``table`` may be a path (of a table or of a sweep file), an
     open :class:`~vcavity.io.table.Table` or a :class:`~vcavity.io.sweep_table.SweepData`.
 
@@ -192,4 +201,4 @@ def plot_table(table, kind: str | None = None, output=None, **options):
 
 __all__ = ["DEFAULT_ORDERS", "DEFAULT_SCALE", "KINDS", "KIND_MODULES", "OUTPUT_SUFFIXES", "PlotError",
            "PlotRequest", "SCALES", "check_output", "check_request", "check_scale", "parse_order", "plot_table",
-           "render", "select_theta"]
+           "render", "save", "select_theta"]

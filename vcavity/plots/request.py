@@ -55,20 +55,49 @@ def default_output(table, kind: str) -> Path:
     return table.path.with_name(f"{table.path.stem}_{kind}.png")
 
 
-def check_output(output) -> Path:
-    """The output file as a path, refused (PlotError) unless it can be written."""
-    out = Path(output)
-    if out.suffix.lower() not in OUTPUT_SUFFIXES:
-        raise PlotError(f"-o = {str(out)!r}: unsupported file type {out.suffix or '(none)'!r}; "
+def check_output(output, overwrite: bool = False, source=None, field: str = "-o") -> Path:
+    """The output image as a path, refused (PlotError) unless it may be written.
+
+    The output rules of ``vcavity run`` and ``export`` (:func:`vcavity.io.preflight.check_output`):
+    never a link, FIFO, device, folder or the input ``source`` itself; an existing file only
+    with ``overwrite``; the folder must accept a new file. Stale temporary files of killed
+    plots are removed.
+
+    Parameters
+    ----------
+    output : str or os.PathLike
+    overwrite : bool
+        Replace an existing file (``--overwrite``).
+    source : str or os.PathLike, optional
+        The table or sweep file drawn.
+    field : str
+        How the user named the output, for messages: ``-o``, or the default.
+    """
+    from vcavity.io import preflight
+
+    out = preflight.Output(Path(output), field, str(output))
+    if out.path.suffix.lower() not in OUTPUT_SUFFIXES:
+        raise PlotError(f"{field} = {str(out.path)!r}: unsupported file type {out.path.suffix or '(none)'!r}; "
                         f"accepted {', '.join(OUTPUT_SUFFIXES)}")
-    if out.is_dir():
-        raise PlotError(f"-o = {str(out)!r}: is a directory; give a file path")
-    folder = out.parent
-    if not folder.is_dir():
-        raise PlotError(f"-o = {str(out)!r}: folder {str(folder)!r} does not exist")
-    if not os.access(folder, os.W_OK):
-        raise PlotError(f"-o = {str(out)!r}: folder {str(folder)!r} is not writable")
-    return out
+    try:
+        preflight.check_output(out, None, overwrite, source=None if source is None else os.fspath(source))
+        preflight.probe_output(out)
+    except preflight.PreflightError as exc:
+        raise PlotError(str(exc)) from None
+    return out.path
+
+
+def default_field(kind: str) -> str:
+    """How messages name the default output of ``kind``."""
+    return f"output (default: <input>_{kind}.png beside the input)"
+
+
+def save(fig, output: Path, dpi: int = 110) -> None:
+    """Save ``fig`` to ``output`` atomically (temporary file in the same folder, os.replace)."""
+    from vcavity.io.atomic import replace_atomically
+
+    # the temporary file ends in .tmp: the format comes from the output's suffix
+    replace_atomically(output, lambda temporary: fig.savefig(temporary, format=output.suffix[1:].lower(), dpi=dpi))
 
 
 def sort_orders(orders) -> tuple:

@@ -21,6 +21,7 @@ from vcavity.plots.request import (
     PlotError,
     PlotRequest,
     check_output,
+    default_field,
     parse_order,
     select_theta,
     sort_orders,
@@ -86,7 +87,7 @@ class SweepPlotData:
     notes: list = field(default_factory=list)
 
 
-def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
+def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None, overwrite=False):
     """Check ``--kind sweep`` against a sweep file, computing nothing.
 
     ``scale`` was checked against :data:`SCALES` by :func:`vcavity.plots.check_request`.
@@ -107,11 +108,8 @@ def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
         have = ", ".join(a.name for a in sweep.axes)
         raise PlotError(f"sweep {name} has no roughness axis (axes: {have}); --kind sweep draws albedo against "
                         f"one of {', '.join(ROUGHNESS_AXES)}: sweep one of them")
-    if output is None:
-        if sweep.path is None:
-            raise PlotError("-o is needed: the sweep has no file to put the plot beside")
-        output = sweep.path.with_name(f"{sweep.path.stem}_sweep.png")
-    out = check_output(output)
+    if output is None and sweep.path is None:
+        raise PlotError("-o is needed: the sweep has no file to put the plot beside")
     have = orders_text(sweep.order)
     if orders:
         chosen = tuple(dict.fromkeys(parse_order(o) for o in orders))
@@ -124,6 +122,12 @@ def check(sweep, output=None, theta_i_deg=None, orders=None, scale=None):
     chosen = sort_orders(chosen)
     theta = next(a for a in sweep.axes if a.name == "theta_i_deg").values
     indices = select_theta(theta, theta_i_deg, f"sweep {name}")
+    # the output last: what to draw is reported first, whatever the output's state
+    if output is None:
+        out = check_output(sweep.path.with_name(f"{sweep.path.stem}_sweep.png"), overwrite, sweep.path,
+                           default_field("sweep"))
+    else:
+        out = check_output(output, overwrite, sweep.path)
     return PlotRequest(kind="sweep", output=out, indices=tuple(indices), orders=chosen, scale="linear",
                        models=())
 

@@ -56,6 +56,13 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
     run with a checkpoint; during the table write it cancels the rename (the old table
     stays) and the checkpoint, saved with the finished state just before, keeps the run:
     ``--resume`` then only writes the table.
+
+    Raises
+    ------
+    vcavity.io.checkpoint.CheckpointWriteError
+        A checkpoint could not be saved (disk full, ...); an earlier one is unchanged.
+    OSError
+        The table could not be written; the checkpoint, saved just before, keeps the run.
     """
     from vcavity.simulate.interrupts import DeferredInterrupt
     from vcavity.simulate.pipeline import RunInterrupted
@@ -64,8 +71,14 @@ def run_to_table(simulation, output: Path, write, state=None, checkpoint_every_s
     config_dict = simulation.config.to_dict()
 
     def save(current):
-        checkpoint.save(path, current, config_dict, int(simulation.paths_done(current).sum()),
-                        simulation.total_paths)
+        # a failed save must not pass for a failed table write: the run would claim a
+        # checkpoint that does not exist (CheckpointWriteError says which file failed)
+        previous = path.is_file()
+        try:
+            checkpoint.save(path, current, config_dict, int(simulation.paths_done(current).sum()),
+                            simulation.total_paths)
+        except OSError as exc:
+            raise checkpoint.CheckpointWriteError(path, previous, exc.strerror or str(exc)) from None
 
     bar = None
     with DeferredInterrupt() as interrupt:
