@@ -151,14 +151,12 @@ def log_reflectance_table(facet_kind, facet_data):
         indices, where ``log F`` changes steeply near grazing): then every hit's ``F`` is
         evaluated exactly.
     """
-    finest = LOG_TABLE_SIZES[-1] * _TABLE_CHECKS
-    with np.errstate(divide="ignore"):
-        exact = np.log(_reflectances(np.linspace(0.0, 1.0, finest + 1), facet_kind, facet_data))
-    for n in LOG_TABLE_SIZES:
-        table = exact[::finest // n]
-        sample = exact[::finest // (n * _TABLE_CHECKS)]
+    for n in LOG_TABLE_SIZES:  # F evaluated at each size's own check points: most facets stop at 4096
+        with np.errstate(divide="ignore"):
+            sample = np.log(_reflectances(np.linspace(0.0, 1.0, n * _TABLE_CHECKS + 1), facet_kind, facet_data))
         if not np.all(np.isfinite(sample)):
             break
+        table = sample[::_TABLE_CHECKS]
         error = np.abs(_interpolated_array(table, np.linspace(0.0, 1.0, sample.size)) - sample)
         if np.max(error) <= LOG_TABLE_ERROR:
             return np.ascontiguousarray(table)
