@@ -17,7 +17,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import literally, njit, prange
+from numba import literally, prange
+
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from vcavity.sensor.binning import direction_to_cell
 from vcavity.config import Material, validate

@@ -2,7 +2,7 @@
 
 The read-only tests copy the package into a temporary folder that the child processes
 cannot write, give them an unwritable HOME and no NUMBA_CACHE_DIR, and run the public
-commands there. Numba then finds no cache location of its own, and vcavity must fall
+commands there. vcavity cannot make its per-user cache folder in that HOME, and must fall
 back to a private folder in TMPDIR, or, when TMPDIR is unwritable too, run uncached with
 a one-line note. Root ignores permission bits, so as root the children run as ``nobody``;
 where ``nobody`` cannot reach the interpreter (a Python installed under /root, as on
@@ -268,7 +268,7 @@ def test_run_compiles_and_writes_a_table(sandbox, case):
     assert output.is_file() and f"wrote {output}" in result.stdout
     uid = sandbox.user[0] if sandbox.user is not None else os.getuid()
     private_cache = sandbox.tmp / f"vcavity-numba-cache-{uid}"
-    if case == "writable tmp":  # Numba found no place of its own: the private folder is used
+    if case == "writable tmp":  # no per-user cache folder in that HOME: the private folder is used
         assert NOTE not in result.stderr
         assert private_cache.is_dir() and any(private_cache.rglob("*.nbi")), result.stderr
         assert stat.S_IMODE(private_cache.stat().st_mode) == 0o700

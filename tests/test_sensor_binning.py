@@ -3,7 +3,7 @@ identical to binning the exact inverse map."""
 
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from vcavity.sensor.binning import (
     _ATAN_MAX_ERROR,

@@ -8,7 +8,9 @@ import math
 
 import numpy as np
 import pytest
-from numba import literally, njit
+from numba import literally
+
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from vcavity.analytic.single_bounce import ModelNotApplicable, SingleBounceModel, flat_body_brdf
 from vcavity.analytic.terms import accurate_transmittance_table, table_transmittance

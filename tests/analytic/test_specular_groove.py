@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from tests.reference import conductor_fresnel as ref_conductor, materials as ref
 from tests.reference.groove_paths import trace_steps

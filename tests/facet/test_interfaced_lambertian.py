@@ -16,7 +16,7 @@ from pathlib import Path
 import numba
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from scipy.integrate import quad
 from scipy.stats import chi2
 

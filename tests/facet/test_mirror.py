@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from vcavity.facet import interfaced_lambertian as il
 from vcavity.facet import mirror

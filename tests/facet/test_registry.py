@@ -6,7 +6,9 @@ import math
 
 import numpy as np
 import pytest
-from numba import literally, njit
+from numba import literally
+
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
 from vcavity.facet import conductor, interfaced_lambertian, mirror, registry
 from vcavity.facet.common import ABSORBED, SCATTERED

@@ -14,7 +14,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from numba import literally, njit
+from numba import literally
+
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from scipy import stats
 
 from vcavity.facet import registry as facets

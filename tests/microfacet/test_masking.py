@@ -8,7 +8,7 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from scipy import special
 
 from vcavity.microfacet import beckmann, common, gaussian, ggx, phong, registry

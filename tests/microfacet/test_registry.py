@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from numba import literally
 
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from vcavity._numba.jit import CACHE_ENABLED
 from vcavity.microfacet import beckmann, gaussian, ggx, phong, student_t, registry
 from vcavity.microfacet.common import normal_from_slope_angle

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 import pytest
-from numba import njit
+from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from scipy import integrate
 
 from vcavity.analytic.albedo import lambertian_normal_f1_albedo, specular_albedo

@@ -1,20 +1,33 @@
-"""Numba's on-disk cache, made safe for read-only installs.
+"""Numba's on-disk cache: one per-user folder of vcavity's own, never inside the install.
 
 Every jitted function of vcavity is decorated with :func:`njit` from here, never with
-``numba.njit`` directly. Numba looks for a cache directory when a ``cache=True`` function
-is *decorated*, and raises ``RuntimeError: cannot cache function ...: no locator
-available`` when it finds none (an install that the user cannot write, with an
-unwritable home). This module decides once, at import, where the cache goes:
+``numba.njit`` directly. Left to itself, Numba caches ``cache=True`` functions in the
+``__pycache__`` folders beside their sources: for a regular install that is
+``site-packages/vcavity/*/__pycache__``, files pip does not know about, which outlive
+``pip uninstall`` and leave a ``vcavity`` namespace folder that shadows a later install.
+So this module decides once, at import, where vcavity's compiled code goes:
 
-1. wherever Numba itself would put it: ``NUMBA_CACHE_DIR`` when set, else the
-   ``__pycache__`` folders beside the sources, else Numba's per-user cache directory;
-2. if none of those is writable, a private per-user folder in the temporary directory
-   (``<tmp>/vcavity-numba-cache-<uid>``, mode 0700, used only when it is ours; ``<tmp>``
-   is ``TMPDIR`` when set, else the system's);
-3. if even that fails, no caching: kernels are compiled in every process, and a one-line
+1. ``NUMBA_CACHE_DIR`` (``numba.config.CACHE_DIR``) when the user set it;
+2. else a per-user cache folder keyed by vcavity's version, :func:`user_cache_dir`:
+   ``$XDG_CACHE_HOME/vcavity/<version>/numba`` (``~/.cache/...`` when unset) on Linux,
+   ``~/Library/Caches/vcavity/<version>/numba`` on macOS,
+   ``%LOCALAPPDATA%\\vcavity\\Cache\\<version>\\numba`` on Windows;
+3. if that cannot be written (a read-only home), a private folder in the temporary
+   directory (``<tmp>/vcavity-numba-cache-<uid>``, mode 0700, used only when it is ours;
+   ``<tmp>`` is ``TMPDIR`` when set, else the system's);
+4. if even that fails, no caching: kernels are compiled in every process, and a one-line
    note says so on stderr.
 
-Nothing here changes what is computed; only where compiled code is kept.
+The folder is applied to vcavity's functions only: ``numba.config.CACHE_DIR`` is set
+while :func:`njit` decorates (Numba fixes a function's cache folder then, when it builds
+the function's cache locator) and restored right after, so other packages' Numba caches
+and child processes' environments are untouched, and the order in which Numba and
+vcavity are imported does not matter. Within the folder Numba keeps one subfolder per
+source folder (its name and a hash of its path), and names its files after the function
+and the Python version, and checks Numba's version and the source file's time stamp on
+load; so one folder serves several installs, Pythons and Numbas without mix-ups. The
+version key lets an upgrade start clean and ``rm -rf`` of an old version's folder free
+its space. Nothing here changes what is computed; only where compiled code is kept.
 """
 
 from __future__ import annotations
@@ -22,20 +35,59 @@ from __future__ import annotations
 import os
 import sys
 import tempfile
+import threading
 
 import numba
-from numba.core.caching import FunctionCache
+
+from vcavity._version import __version__
 
 
-def _probe():  # a function in this package's folder: the in-tree cache is tried for it
-    return None
+def user_cache_dir(environ=None, platform: str | None = None) -> str | None:
+    """The per-user folder for vcavity's compiled code under the platform's cache rules.
+
+    The XDG base directory rule on Linux and other Unixes, ``~/Library/Caches`` on macOS,
+    ``%LOCALAPPDATA%`` on Windows (the rules ``platformdirs.user_cache_dir`` follows; the
+    few lines here spare a dependency).
+
+    Parameters
+    ----------
+    environ : mapping, optional
+        Environment variables (default ``os.environ``).
+    platform : str, optional
+        ``sys.platform`` value (default: this one's).
+
+    Returns
+    -------
+    str or None
+        ``<cache home>/vcavity/<version>/numba``; None when there is no home to put it in.
+    """
+    environ = os.environ if environ is None else environ
+    platform = sys.platform if platform is None else platform
+    home = environ.get("HOME") or os.path.expanduser("~")
+    if platform.startswith("win"):
+        base = environ.get("LOCALAPPDATA")
+        return os.path.join(base, "vcavity", "Cache", __version__, "numba") if base else None
+    if platform == "darwin":
+        base = os.path.join(home, "Library", "Caches")
+    else:
+        base = environ.get("XDG_CACHE_HOME", "")
+        if not os.path.isabs(base):  # the XDG rule: a relative path is invalid and ignored
+            base = os.path.join(home, ".cache")
+    if not os.path.isabs(base):  # no home at all ("~" unexpanded)
+        return None
+    return os.path.join(base, "vcavity", __version__, "numba")
 
 
-def _cache_locatable() -> bool:
-    """True when Numba finds a writable cache location for a function of this package."""
+def _writable_folder(path: str) -> bool:
+    """Whether ``path`` is, or can be made, a folder this process can write files in.
+
+    The same test as Numba's own (create the folders, then a temporary file there).
+    """
     try:
-        FunctionCache(_probe)
-    except RuntimeError:
+        os.makedirs(path, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError:
         return False
     return True
 
@@ -69,29 +121,40 @@ def _private_temporary_cache() -> str | None:
         return None
     if not os.path.isdir(path) or os.path.islink(path) or (hasattr(os, "getuid") and info.st_uid != uid):
         return None  # somebody else's folder (or a symlink): never cache there
-    return path if os.access(path, os.W_OK | os.X_OK) else None
+    return path if _writable_folder(path) else None
 
 
-def _choose_cache() -> tuple[bool, str]:
-    """(caching enabled, where) for this process."""
-    if _cache_locatable():
-        return True, numba.config.CACHE_DIR or "numba default (beside the sources or per user)"
-    fallback = _private_temporary_cache()
-    if fallback is not None:
-        numba.config.CACHE_DIR = fallback
-        if _cache_locatable():
-            return True, fallback
-        numba.config.CACHE_DIR = ""
+def _choose_cache() -> str:
+    """The folder vcavity's compiled code goes to in this process; "" for none."""
+    for candidate in (numba.config.CACHE_DIR or user_cache_dir(), _private_temporary_cache()):
+        if candidate and _writable_folder(candidate):
+            return os.path.abspath(candidate)
     print("vcavity: note: no writable Numba cache directory (set NUMBA_CACHE_DIR to one); "
           "kernels are compiled in every process", file=sys.stderr)
-    return False, ""
+    return ""
 
 
-CACHE_ENABLED, CACHE_LOCATION = _choose_cache()
+#: Folder of vcavity's compiled code ("" when nothing can be cached).
+CACHE_LOCATION = _choose_cache()
+#: Whether ``cache=True`` is honoured in this process.
+CACHE_ENABLED = bool(CACHE_LOCATION)
+
+_decorating = threading.Lock()  # the swap of numba.config.CACHE_DIR is process-wide
+
+
+def _decorate(decorator, function):
+    """``decorator(function)`` with Numba's cache folder set to :data:`CACHE_LOCATION`."""
+    with _decorating:
+        saved = numba.config.CACHE_DIR
+        numba.config.CACHE_DIR = CACHE_LOCATION
+        try:
+            return decorator(function)
+        finally:
+            numba.config.CACHE_DIR = saved
 
 
 def njit(*args, **options):
-    """``numba.njit`` with ``cache=True`` honoured only where a cache can be written.
+    """``numba.njit``, caching in :data:`CACHE_LOCATION` (or not at all where nothing can be cached).
 
     Parameters
     ----------
@@ -101,11 +164,16 @@ def njit(*args, **options):
     Returns
     -------
     numba dispatcher or decorator
-        Exactly what ``numba.njit`` returns.
+        What ``numba.njit`` returns.
     """
-    if options.get("cache") and not CACHE_ENABLED:
-        options["cache"] = False
-    return numba.njit(*args, **options)
+    if not options.get("cache"):
+        return numba.njit(*args, **options)
+    if not CACHE_ENABLED:
+        return numba.njit(*args, **dict(options, cache=False))
+    if len(args) == 1 and callable(args[0]):  # njit(function, cache=True)
+        return _decorate(numba.njit(**options), args[0])
+    decorator = numba.njit(*args, **options)
+    return lambda function: _decorate(decorator, function)
 
 
-__all__ = ["njit", "CACHE_ENABLED", "CACHE_LOCATION"]
+__all__ = ["njit", "user_cache_dir", "CACHE_ENABLED", "CACHE_LOCATION"]
