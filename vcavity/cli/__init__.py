@@ -1,4 +1,4 @@
-"""Command-line interface: ``vcavity run``, ``info``, ``compare``, ``plot``, ``sweep`` and ``export``.
+"""Command-line interface: ``vcavity run``, ``info``, ``compare``, ``plot``, ``sweep``, ``export`` and ``warmup``.
 
 Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
 (config, arguments, output path, unreadable table, model not applicable, not enough memory
@@ -17,11 +17,11 @@ import argparse
 import os
 import sys
 
-from vcavity.cli import compare, export, info, plot, run, sweep
+from vcavity.cli import compare, export, info, plot, run, sweep, warmup
 from vcavity.cli.common import EXIT_INTERRUPTED, Interrupted, Parser
 
 #: The subcommands, in the order ``vcavity --help`` lists them.
-COMMANDS = (run, info, compare, plot, sweep, export)
+COMMANDS = (run, info, compare, plot, sweep, export, warmup)
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -275,6 +275,7 @@ def prepare(args: argparse.Namespace, cfg, out):
     from vcavity.simulate import driver
     from vcavity.simulate.interrupts import raise_if_pending
     from vcavity.simulate.pipeline import Simulation
+    from vcavity.simulate.warmup import CompileNotice, Variant
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
     work = "no path (exact estimator)" if sim.exact else f"{sim.total_paths:,} paths"
@@ -286,7 +287,8 @@ def prepare(args: argparse.Namespace, cfg, out):
         if not (args.overwrite and not args.resume and "unfinished run exists" in str(exc)):
             raise BadInput(str(exc)) from None
         state = None  # --overwrite: start afresh; the old checkpoint is replaced by the first save
-    compile_s = sim.compile()
+    with CompileNotice(Variant.of_material(cfg.material).label):  # a line only when it takes a while
+        compile_s = sim.compile()
     raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
     if sim.kernel is not None:
         print(f"vcavity: kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)",

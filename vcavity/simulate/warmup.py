@@ -1,0 +1,188 @@
+"""Compiled kernel variants by name: list them, compile them into the cache, announce a compile.
+
+A kernel variant is one walk (``v-cavity`` or ``smith``) for one distribution, facet model
+and facet variant (:func:`vcavity.kernels.trace.variants`); Numba compiles each on first
+use (tens of seconds) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
+compiles named variants ahead of time, for cluster images and Dask workers
+(:func:`compile_variant`); ``vcavity run`` says what it is compiling while it does
+(:class:`CompileNotice`) instead of staying silent.
+
+A variant is compiled through :meth:`vcavity.simulate.pipeline.Simulation.compile`, with the
+argument types of a run: what warmup puts in the cache is what a run loads.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+from dataclasses import dataclass
+
+from vcavity import config as config_mod
+from vcavity.facet import registry as facets
+from vcavity.kernels.smith import get_smith_kernel
+from vcavity.kernels.trace import get_kernel
+from vcavity.microfacet import registry as distributions
+from vcavity.simulate.pipeline import Scene, Simulation
+
+#: The walks ``microsurface`` selects, in the order warmup compiles them.
+MICROSURFACES = ("v-cavity", "smith")
+
+
+@dataclass(frozen=True)
+class Variant:
+    """One compiled kernel: a walk, a distribution, a facet model and one of its variants (names)."""
+
+    microsurface: str
+    distribution: str
+    facet: str
+    facet_variant: str
+
+    @property
+    def label(self) -> str:
+        """``beckmann x interfaced_lambertian``, with the facet variant where it is not the facet's
+        only one or its full model, and the walk where it is not the V-groove walk."""
+        module = facets.get(self.facet)
+        full = module.VARIANTS[-1]
+        variant = "" if self.facet_variant == full else f" ({self.facet_variant})"
+        walk = "" if self.microsurface == "v-cavity" else f" ({self.microsurface} walk)"
+        return f"{self.distribution} x {self.facet}{variant}{walk}"
+
+    @classmethod
+    def of_material(cls, material) -> "Variant":
+        """The variant a run of ``material`` (a :class:`vcavity.config.Material`) compiles."""
+        return cls(material.microsurface, material.distribution, material.facet,
+                   facets.variant_name(material.facet, material.facet_params))
+
+
+def _smith_walkable(distribution: str) -> bool:
+    return distributions.smith_walk_refusal(distribution) is None
+
+
+def variants(microsurfaces=None, distribution_names=None, facet_names=None) -> list[Variant]:
+    """Every variant of the given walks, distributions and facets (None: all registered).
+
+    The Smith walk only for the distributions it takes. Registry order.
+
+    Parameters
+    ----------
+    microsurfaces, distribution_names, facet_names : iterable of str, optional
+        Names as in a run config; unknown ones are a ``KeyError`` naming what is registered.
+
+    Returns
+    -------
+    list of Variant
+    """
+    walks = tuple(microsurfaces) if microsurfaces else MICROSURFACES
+    for walk in walks:
+        if walk not in MICROSURFACES:
+            raise KeyError(f"unknown microsurface {walk!r}; accepted: {', '.join(MICROSURFACES)}")
+    dists = [distributions.get(name).NAME for name in distribution_names] if distribution_names \
+        else list(distributions.NAMES)
+    facet_modules = [facets.get(name) for name in facet_names] if facet_names else list(facets.MODULES)
+    return [Variant(walk, dist, facet.NAME, name) for walk in walks for dist in dists for facet in facet_modules
+            for name in facet.VARIANTS if walk == "v-cavity" or _smith_walkable(dist)]
+
+
+def _example_values(module) -> dict:
+    """Canonical parameter values of a registry module from its ``--help`` examples."""
+    return {spec.keys[0]: spec.example for spec in module.PARAMETERS}
+
+
+def compile_variant(variant: Variant) -> tuple[float, bool]:
+    """Compile ``variant`` into the cache, or load it from there.
+
+    Parameters
+    ----------
+    variant : Variant
+
+    Returns
+    -------
+    seconds : float
+        Time the compile (or cache load) took.
+    loaded : bool
+        True when it came from the cache (nothing compiled).
+    """
+    simulation = Simulation(config_mod.default_config(), threads=1)
+    dist_kind, params = distributions.params_from(
+        variant.distribution, distributions.REGISTRY.parse(variant.distribution,
+                                                           _example_values(distributions.get(variant.distribution))))
+    facet_module = facets.get(variant.facet)
+    facet_kind, _, data = facets.prepare(variant.facet, facets.REGISTRY.parse(variant.facet,
+                                                                              _example_values(facet_module)))
+    index = facet_module.VARIANTS.index(variant.facet_variant)
+    build = get_smith_kernel if variant.microsurface == "smith" else get_kernel
+    # the run's own call (Simulation.compile), with this variant's kernel and scene: the
+    # cached signature is the one a run asks for
+    simulation.scene = Scene(dist_kind, params, facet_kind, index, data)
+    simulation.kernel = build(dist_kind, facet_kind, index)
+    misses = sum(simulation.kernel.stats.cache_misses.values())  # the dispatcher is shared per process
+    seconds = simulation.compile()
+    return seconds, sum(simulation.kernel.stats.cache_misses.values()) == misses
+
+
+class CompileNotice:
+    """Context manager: a line on stderr while a compile takes longer than ``delay`` seconds.
+
+    A kernel loaded from the cache takes well under ``delay`` and prints nothing; a cold
+    compile prints ``vcavity: compiling the kernel for beckmann x interfaced_lambertian
+    (first use; cached afterwards) ...`` and, when it ends, the seconds it took (on a
+    terminal the line counts the seconds as they pass). The compile itself stays in the
+    calling thread, so Ctrl-C reaches it as before; a thread only writes the line, and an
+    interrupted compile ends the line before the interrupt's own message.
+
+    Parameters
+    ----------
+    label : str
+        What is compiled (:attr:`Variant.label`).
+    stream : file, optional
+        Default ``sys.stderr``.
+    delay : float
+        Seconds before the line appears.
+    """
+
+    def __init__(self, label: str, stream=None, delay: float = 1.0):
+        self.text = f"vcavity: compiling the kernel for {label} (first use; cached afterwards) ..."
+        self.stream = stream if stream is not None else sys.stderr
+        self.delay = delay
+        self._done = threading.Event()
+        self._lock = threading.Lock()
+        self._shown = False
+        self._start = 0.0
+        self._thread = threading.Thread(target=self._tick, name="vcavity-compile-notice", daemon=True)
+
+    def _write(self, text: str) -> None:
+        self.stream.write(text)
+        self.stream.flush()
+
+    def _tick(self) -> None:
+        if self._done.wait(self.delay):
+            return
+        live = getattr(self.stream, "isatty", lambda: False)()
+        with self._lock:
+            if self._done.is_set():
+                return
+            self._shown = True
+            self._write(self.text)
+        while live and not self._done.wait(1.0):
+            with self._lock:
+                if not self._done.is_set():
+                    self._write(f"\r{self.text} {time.perf_counter() - self._start:.0f} s")
+
+    def __enter__(self) -> "CompileNotice":
+        self._start = time.perf_counter()
+        self._thread.start()
+        return self
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        with self._lock:
+            self._done.set()
+            if self._shown:
+                end = f" {time.perf_counter() - self._start:.0f} s" if exc_type is None else " stopped"
+                self._write(f"\r{self.text}{end}\n" if getattr(self.stream, "isatty", lambda: False)()
+                            else f"{end}\n")
+        self._thread.join()
+        return False
+
+
+__all__ = ["MICROSURFACES", "Variant", "variants", "compile_variant", "CompileNotice"]
