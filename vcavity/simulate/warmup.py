@@ -18,6 +18,8 @@ import threading
 import time
 from dataclasses import dataclass
 
+from numba.core import event
+
 from vcavity import config as config_mod
 from vcavity.facet import registry as facets
 from vcavity.kernels.smith import get_smith_kernel
@@ -122,10 +124,11 @@ def compile_variant(variant: Variant) -> tuple[float, bool]:
 
 
 class CompileNotice:
-    """Context manager: a line on stderr while a compile takes longer than ``delay`` seconds.
+    """Context manager: a line on stderr while Numba compiles for longer than ``delay`` seconds.
 
-    A kernel loaded from the cache takes well under ``delay`` and prints nothing; a cold
-    compile prints ``vcavity: compiling the kernel for beckmann x interfaced_lambertian
+    Numba announces each real compile (a cache miss) with a ``numba:compile`` event; a
+    kernel loaded from the cache raises none and prints nothing, however long the load
+    takes on a busy machine. A cold compile prints ``vcavity: compiling the kernel for beckmann x interfaced_lambertian
     (first use; cached afterwards) ...`` and, when it ends, the seconds it took (on a
     terminal the line counts the seconds as they pass). The compile itself stays in the
     calling thread, so Ctrl-C reaches it as before; a thread only writes the line, and an
@@ -149,6 +152,8 @@ class CompileNotice:
         self._lock = threading.Lock()
         self._shown = False
         self._start = 0.0
+        self._compiling = threading.Event()
+        self._listening = None
         self._thread = threading.Thread(target=self._tick, name="vcavity-compile-notice", daemon=True)
 
     def _write(self, text: str) -> None:
@@ -158,6 +163,9 @@ class CompileNotice:
     def _tick(self) -> None:
         if self._done.wait(self.delay):
             return
+        while not self._compiling.wait(0.1):  # a cache load: nothing to say
+            if self._done.is_set():
+                return
         live = getattr(self.stream, "isatty", lambda: False)()
         with self._lock:
             if self._done.is_set():
@@ -171,6 +179,8 @@ class CompileNotice:
 
     def __enter__(self) -> "CompileNotice":
         self._start = time.perf_counter()
+        self._listening = event.install_listener("numba:compile", _CompileStarted(self._compiling))
+        self._listening.__enter__()
         self._thread.start()
         return self
 
@@ -182,7 +192,21 @@ class CompileNotice:
                 self._write(f"\r{self.text}{end}\n" if getattr(self.stream, "isatty", lambda: False)()
                             else f"{end}\n")
         self._thread.join()
+        self._listening.__exit__(None, None, None)
         return False
+
+
+class _CompileStarted(event.Listener):
+    """Sets ``flag`` when Numba starts compiling anything (not when it loads from the cache)."""
+
+    def __init__(self, flag: threading.Event):
+        self.flag = flag
+
+    def on_start(self, ev) -> None:
+        self.flag.set()
+
+    def on_end(self, ev) -> None:
+        pass
 
 
 __all__ = ["MICROSURFACES", "Variant", "variants", "compile_variant", "CompileNotice"]
