@@ -181,22 +181,25 @@ def main() -> None:
                 runs[side].append(measure(checkout, spec, work, n))
                 n += 1
         print(f"\n{label}  ({_load()})")
-        print(f"  {'':4s} {'cold wall s':>12s} {'cold CPU s':>11s} {'warm wall s':>12s} {'import s':>9s}")
+        print(f"  {'':4s} {'cold wall s':>12s} {'cold CPU s':>11s} {'warm wall s':>12s} {'warm CPU s':>11s} "
+              f"{'import s':>9s}")
         med = {}
         for side, _ in sides:
             r = runs[side]
             med[side] = {"cold wall": statistics.median(x["cold"]["wall"] for x in r),
                          "cold cpu": statistics.median(x["cold"]["cpu"] for x in r),
                          "warm wall": statistics.median(x["warm"]["wall"] for x in r),
+                         "warm cpu": statistics.median(x["warm"]["cpu"] for x in r),
                          "import": statistics.median(x["cold"]["import_wall"] for x in r)}
             each = ", ".join(f"{x['cold']['cpu']:.1f}" for x in r)
             print(f"  {side:4s} {med[side]['cold wall']:12.2f} {med[side]['cold cpu']:11.2f} "
-                  f"{med[side]['warm wall']:12.3f} {med[side]['import']:9.2f}   "
+                  f"{med[side]['warm wall']:12.3f} {med[side]['warm cpu']:11.3f} {med[side]['import']:9.2f}   "
                   f"(cold CPU each: {each})")
         if args.baseline:
             print(f"  A/B  {med['A']['cold wall'] / med['B']['cold wall']:11.3f} "
                   f"{med['A']['cold cpu'] / med['B']['cold cpu']:11.3f} "
-                  f"{med['A']['warm wall'] / med['B']['warm wall']:12.3f}")
+                  f"{med['A']['warm wall'] / med['B']['warm wall']:12.3f} "
+                  f"{med['A']['warm cpu'] / med['B']['warm cpu']:11.3f}")
         for side, _ in sides:
             _print_passes(f"{label} [{side}]", runs[side], args.passes)
     if not args.work:
