@@ -50,11 +50,16 @@ def test_one_axis_named_takes_every_value_of_the_others(capsys):
     assert all(" x interfaced_lambertian" in label and "walk" not in label for label in labels)
 
 
+#: distributions the Smith walk refuses (from the registry: the list changes as samplers arrive)
+_NOT_WALKED = [name for name in distributions.NAMES if distributions.smith_walk_refusal(name) is not None]
+
+
 @pytest.mark.parametrize("argv, expected", [
     ([], "name what to compile"),
     (["--distribution", "beckman"], "--distribution = 'beckman': must be one of beckmann, ggx"),
     (["--facet", "gold"], "--facet = 'gold': must be one of interfaced_lambertian"),
-    (["--microsurface", "smith", "--distribution", "phong"], "the Smith walk takes none of them"),
+    pytest.param(["--microsurface", "smith", "--distribution", *_NOT_WALKED], "the Smith walk takes none of them",
+                 marks=pytest.mark.skipif(not _NOT_WALKED, reason="the Smith walk takes every distribution")),
     (["--all", "--facet", "mirror"], "--all = every variant: it takes no --facet"),
 ])
 def test_bad_selection_is_one_line_and_compiles_nothing(capsys, monkeypatch, argv, expected):

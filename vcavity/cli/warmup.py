@@ -23,7 +23,8 @@ conductor have one each); parameter values do not matter.
 
 Each flag names values of one axis (as in a run config; `vcavity run --help` lists them);
 an axis not named takes every registered value, except the walk, which is v-cavity unless
---microsurface says otherwise. --all is every variant of every walk.
+--microsurface says otherwise (the smith walk only for the distributions it takes; the
+others are skipped). --all is every variant of every walk.
 
 The cache is NUMBA_CACHE_DIR when set, else ~/.cache/vcavity/<version>/numba (the
 XDG_CACHE_HOME rule; the summary line prints the folder). Running warmup again loads what
