@@ -34,8 +34,6 @@ def test_the_default_is_the_v_cavity_and_is_not_stored():
 
 @pytest.mark.parametrize("material, simulation, field, words", [
     (dict(SMITH_MIRROR, microsurface="smiht"), {}, "material.microsurface", "accepted: v-cavity, smith"),
-    (dict(SMITH_MIRROR, distribution="phong", exponent=20.0, alpha=None), {}, "material.microsurface",
-     "no visible-normal sampler for phong"),
     (dict(SMITH_MIRROR, distribution="gaussian", sigma=0.3, alpha=None), {}, "material.microsurface",
      "diverges"),
     (SMITH_MIRROR, {"estimator": "exact-f1"}, "simulation.estimator", "use 'analog'"),
