@@ -161,7 +161,7 @@ BAD = [
     ("grid", ["--kind", "slice"], "--kind = 'slice': grid.h5 is a sweep file (vcavity sweep), drawn with --kind sweep"),
     ("grid", ["--kind", "map"], "drawn with --kind sweep"),
     ("grid", ["--kind", "albedo"], "slice, map and albedo draw a table of vcavity run"),
-    ("grid", ["--scale", "log"], "--scale = 'log': applies to --kind slice and map; sweep plots are linear"),
+    ("grid", ["--scale", "log"], "--scale = 'log': applies to --kind slice, map and versus; sweep plots are linear"),
     ("grid", ["--order", "5"], "--order = 5: sweep grid.h5 has orders 0 (f_inf), 1, 2, 3"),
     ("grid", ["--theta-i", "45"], "--theta-i = 45: not an incident direction of sweep grid.h5 (theta_i_deg: 0, 60)"),
     ("grid", ["-o", "{tmp}/x.bmp"], "unsupported file type '.bmp'"),
