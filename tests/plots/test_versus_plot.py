@@ -160,3 +160,20 @@ def test_another_axis_can_be_compared(sweep, tmp_path):
             alb = [float(ds.albedo.sel(order=2, alpha=x, theta_i_deg=theta, microsurface="v-cavity"))
                    for x in (1.0, 0.1)]
             assert data.albedo_difference[2][i] == pytest.approx(alb[1] - alb[0], rel=1e-12)
+
+
+def test_the_albedo_panel_draws_one_line_per_azimuth(tmp_path):
+    from vcavity.io.table import open_table
+
+    theta, phi = [30.0, 60.0, 30.0, 60.0, 0.0], [0.0, 0.0, 90.0, 90.0, 45.0]
+    a = open_table(random_table(tmp_path / "a.h5", theta, seed=7, phi_deg=phi))
+    b = open_table(random_table(tmp_path / "b.h5", theta[::-1], seed=8, phi_deg=phi[::-1]))
+    request = check_request(a, "versus", tmp_path / "v.png", second=b, orders=["1", "inf"])
+    fig, _ = versus_kind.render(None, request)
+    # the data lines of errorbar (its caps are marker-only lines)
+    lines = [line for line in fig.axes[0].get_lines() if line.get_linestyle() != "None"]
+    # per azimuth (3), order (2) and side (2) one line through its directions, in theta order
+    assert len(lines) == 3 * 2 * 2
+    for line in lines:
+        assert np.all(np.diff(np.asarray(line.get_xdata())) > 0)
+    assert sorted(len(line.get_xdata()) for line in lines) == [1] * 4 + [2] * 8

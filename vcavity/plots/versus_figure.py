@@ -32,17 +32,23 @@ def _shade(ax, edges, value, err, colour, scale="linear"):
 
 
 def _albedo_pair(top, bottom, data):
-    order = np.argsort(data.theta_i_deg, kind="stable")
-    theta = data.theta_i_deg[order]
-    for k in data.orders:
-        for s in (0, 1):
-            err = data.albedo_stderr[s][k]
-            top.errorbar(theta, data.albedo[s][k][order], yerr=None if err is None else 2.0 * err[order],
-                         color=_colour(k), markersize=4, capsize=2, linewidth=1.2, **STYLES[s])
-        err = data.albedo_difference_stderr[k]
-        bottom.errorbar(theta, data.albedo_difference[k][order], yerr=None if err is None else 2.0 * err[order],
-                        color=_colour(k), marker="o", markersize=4, capsize=2, linewidth=1.2)
-    top.set_title("albedo per order", fontsize=10)
+    # one line per phi_i (an anisotropic table's azimuths), each sorted by theta_i
+    phi = np.round(data.phi_i_deg, 9)
+    for value in np.unique(phi):
+        members = np.flatnonzero(phi == value)
+        order = members[np.argsort(data.theta_i_deg[members], kind="stable")]
+        theta = data.theta_i_deg[order]
+        for k in data.orders:
+            for s in (0, 1):
+                err = data.albedo_stderr[s][k]
+                top.errorbar(theta, data.albedo[s][k][order], yerr=None if err is None else 2.0 * err[order],
+                             color=_colour(k), markersize=4, capsize=2, linewidth=1.2, **STYLES[s])
+            err = data.albedo_difference_stderr[k]
+            bottom.errorbar(theta, data.albedo_difference[k][order],
+                            yerr=None if err is None else 2.0 * err[order], color=_colour(k), marker="o",
+                            markersize=4, capsize=2, linewidth=1.2)
+    several = np.unique(phi).size > 1
+    top.set_title("albedo per order" + (" (one line per phi_i)" if several else ""), fontsize=10)
     top.set_ylabel("directional albedo")
     top.set_ylim(bottom=0.0)
     bottom.axhline(0.0, color="0.4", linewidth=0.8)
