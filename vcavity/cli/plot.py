@@ -50,8 +50,8 @@ scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig
 def add_parser(subparsers) -> None:
     """Add the ``plot`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     plot = subparsers.add_parser(
-        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
-        "(albedo against roughness) (PNG, PDF, SVG)",
+        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos), a sweep file "
+        "(albedo against roughness) or two tables side by side (versus) (PNG, PDF, SVG)",
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
         "folder, an existing file without --overwrite, a link, FIFO or the input itself) is a one-line "
