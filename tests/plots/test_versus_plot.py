@@ -177,3 +177,33 @@ def test_the_albedo_panel_draws_one_line_per_azimuth(tmp_path):
     for line in lines:
         assert np.all(np.diff(np.asarray(line.get_xdata())) > 0)
     assert sorted(len(line.get_xdata()) for line in lines) == [1] * 4 + [2] * 8
+
+
+def test_the_microsurface_table_script_prints_the_sweeps_differences(tmp_path, capsys):
+    """scripts/microsurface_table.py (the numbers of docs/microsurfaces.md) against xarray."""
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("microsurface_table", root / "scripts" / "microsurface_table.py")
+    script = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(script)
+    path = random_sweep(tmp_path / "m.h5", [("microsurface", ["smith", "v-cavity"]), ("alpha", [0.3, 0.6]),
+                                             ("theta_i_deg", [0.0, 80.0])], seed=11)
+    assert script.main([str(path), "--alpha", "0.6"]) == 0
+    printed = capsys.readouterr().out.splitlines()
+    rows = [line for line in printed if line.strip()[:1].isdigit() and "|" in line]
+    assert len(rows) == 4
+    with xr.open_dataset(path, engine="h5netcdf") as ds:
+        for row in rows:
+            head, *cells = row.split("|")
+            theta, alpha = (float(x) for x in head.split())
+            for k, cell in zip((1, 2, 0), cells):
+                v, s, d, e = (float(x) for x in cell.split())
+                at = {m: dict(microsurface=m, alpha=alpha, theta_i_deg=theta) for m in ("v-cavity", "smith")}
+                a = {m: float(ds.albedo.sel(order=k, **p)) for m, p in at.items()}
+                n = {m: float(ds.paths.sel(**p)) for m, p in at.items()}
+                sigma = np.hypot(*(np.sqrt(a[m] * (1 - a[m]) / n[m]) for m in at))
+                assert (v, s) == pytest.approx((a["v-cavity"], a["smith"]), abs=5e-5)
+                assert d == pytest.approx(a["smith"] - a["v-cavity"], abs=5e-5)
+                assert e == pytest.approx(2 * sigma, abs=5e-5)
