@@ -169,7 +169,10 @@ def test_the_albedo_panel_draws_one_line_per_azimuth(tmp_path):
     a = open_table(random_table(tmp_path / "a.h5", theta, seed=7, phi_deg=phi))
     b = open_table(random_table(tmp_path / "b.h5", theta[::-1], seed=8, phi_deg=phi[::-1]))
     request = check_request(a, "versus", tmp_path / "v.png", second=b, orders=["1", "inf"])
-    fig, _ = versus_kind.render(None, request)
+    fig, data = versus_kind.render(None, request)
+    assert len(data.slices) == 5  # every direction of A is in B, found by theta_i and phi_i
+    for (first, second), phi_i in zip(data.slices, phi):
+        assert first.phi_i_deg == second.phi_i_deg == phi_i and first.theta_i_deg == second.theta_i_deg
     # the data lines of errorbar (its caps are marker-only lines)
     lines = [line for line in fig.axes[0].get_lines() if line.get_linestyle() != "None"]
     # per azimuth (3), order (2) and side (2) one line through its directions, in theta order
