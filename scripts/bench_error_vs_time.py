@@ -25,6 +25,10 @@ take (from its last point, error ~ time^-1/2).
     python scripts/bench_error_vs_time.py --quick
     python scripts/bench_error_vs_time.py --specular                     # ~3 min
     python scripts/bench_error_vs_time.py --specular --model-only        # the model alone, ~30 s
+    python scripts/bench_error_vs_time.py --microsurface smith --quick   # the same on Smith tables
+
+``--microsurface smith`` runs the first part on the Smith microsurface (the estimators it
+takes: analog and exact-f1; exact-f1's model is the height-correlated Smith one).
 """
 
 from __future__ import annotations
@@ -83,6 +87,8 @@ def main(argv=None) -> int:
     parser.add_argument("--specular", action="store_true",
                         help="only the specular section: exact against analog on whole tables of a mirror and a "
                         "conductor (theta_i 0, 30, 60, 85 deg)")
+    parser.add_argument("--microsurface", choices=("v-cavity", "smith"), default="v-cavity",
+                        help="the microsurface of the materials (default v-cavity; smith: analog and exact-f1 only)")
     parser.add_argument("--model-only", action="store_true",
                         help="with --specular: only the every-order model (no simulation), per direction: its mesh, "
                         "seconds and error estimate at tolerances 3e-3 and 1e-3; runs against any tree on "
@@ -94,11 +100,14 @@ def main(argv=None) -> int:
     if args.specular:
         specular(args)
         return 0
+    materials = {name: {**material, "microsurface": args.microsurface} for name, material in MATERIALS.items()}
+    estimators = [e for e in ESTIMATORS if args.microsurface == "v-cavity" or e[1] in ("analog", "exact-f1")]
     ladder = [10**5, 4 * 10**5, 16 * 10**5] if args.quick else [10**6, 4 * 10**6, 16 * 10**6, 64 * 10**6]
     reference_paths = 4 * 10**6 if args.quick else 10**9
-    print(f"vcavity bench_error_vs_time, theta_i = {THETA_DEG:g} deg, N = 57, {time.strftime('%Y-%m-%d')}")
+    print(f"vcavity bench_error_vs_time, {args.microsurface} microsurface, theta_i = {THETA_DEG:g} deg, N = 57, "
+          f"{time.strftime('%Y-%m-%d')}")
     curves = {}
-    for name, material in MATERIALS.items():
+    for name, material in materials.items():
         ref, ref_time = _run(material, "exact-f1", None, reference_paths, seed=999)
         area = np.asarray(ref.sensor.cell_projected_solid_angle)
         area_sum = {k: np.sum(ref.brdf[0, k] * area) for k in range(3)}
@@ -107,7 +116,7 @@ def main(argv=None) -> int:
         print(f"\n{name}: reference {reference_paths:.1e} paths in {ref_time:.1f} s (model {ref.model_time_s:.1f} s), "
               f"its expected L1 noise f_inf {ref_noise[0]:.2e}, f2 {ref_noise[2]:.2e}")
         print(f"{'estimator':>18} {'paths':>10} {'time s':>8} {'L1 f1':>9} {'L1 f2':>9} {'L1 f_inf':>9}")
-        for label, estimator, fold in ESTIMATORS:
+        for label, estimator, fold in estimators:
             rows = []
             for paths in ladder:
                 result, seconds = _run(material, estimator, fold, paths, seed=7, repeat=args.repeat)
@@ -121,7 +130,7 @@ def main(argv=None) -> int:
             curves[(name, label)] = np.array(rows)
         base = curves[(name, "analog, unfolded")][-1]
         print(f"{'estimator':>18} {'slope f_inf':>11} {'slope f2':>9} {'efficiency f_inf':>17} {'f2':>6}")
-        for label, _, _ in ESTIMATORS:
+        for label, _, _ in estimators:
             rows = curves[(name, label)]
             slope_inf = np.polyfit(np.log(rows[:, 0]), np.log(rows[:, 4]), 1)[0]
             slope_2 = np.polyfit(np.log(rows[:, 0]), np.log(rows[:, 3]), 1)[0]
@@ -130,7 +139,7 @@ def main(argv=None) -> int:
             eff2 = (base[3] ** 2 * base[1]) / (last[3] ** 2 * last[1])
             print(f"{label:>18} {slope_inf:11.2f} {slope_2:9.2f} {eff:17.1f} {eff2:6.1f}")
     # f_inf to 0.2 % relative L1: with normal cell errors L1 ~ sqrt(2/pi) x the stop rule's error
-    material = MATERIALS["fig7b (beckmann 0.6, kd 0.9, eta 1.5)"]
+    material = materials["fig7b (beckmann 0.6, kd 0.9, eta 1.5)"]
     target = 0.002 / math.sqrt(2 / math.pi)
     result, seconds = _run(material, "exact-f1", None, 2 * 10**9, seed=11, target=target)
     ref, _ = _run(material, "exact-f1", None, reference_paths, seed=999)
@@ -140,12 +149,12 @@ def main(argv=None) -> int:
           f"{seconds:.2f} s wall (model {result.model_time_s:.2f} s), L1 of f_inf vs reference {l1:.2e} "
           f"(reference noise included)")
     if args.plot:
-        _plot(curves, args.plot)
+        _plot(curves, args.plot, estimators)
         print(f"plot written to {args.plot}")
     return 0
 
 
-def _plot(curves, path):
+def _plot(curves, path, estimators=ESTIMATORS):
     import matplotlib
 
     matplotlib.use("Agg")
@@ -154,7 +163,7 @@ def _plot(curves, path):
     names = list(MATERIALS)
     fig, axes = plt.subplots(2, len(names), figsize=(5 * len(names), 8), constrained_layout=True)
     for column, name in enumerate(names):
-        for label, _, _ in ESTIMATORS:
+        for label, _, _ in estimators:
             rows = curves[(name, label)]
             axes[0, column].loglog(rows[:, 0], rows[:, 4], "o-", label=label)
             axes[1, column].loglog(rows[:, 1], rows[:, 4], "o-", label=label)

@@ -22,6 +22,12 @@ Ratios measured side by side are the figures to trust, not absolute rates.
 
     python scripts/bench_throughput.py [--paths 2e7] [--repeat 5] [--plot out.png]
     python scripts/bench_throughput.py --skip-baseline --billion   # also time 1e9 paths (2 threads)
+    python scripts/bench_throughput.py --smith [--paths 2e6]       # only 4., below
+
+4. (``--smith``, alone) **The Smith walk beside the V-groove walk** on the same materials
+   (fig. 7b; GGX 0.5 kd 0.8; GGX 0.5 mirror; Beckmann 0.1 kd 0), 1 and 2 threads, the two
+   walks alternated within each repeat: paths per CPU second and their ratio (the cost of a
+   Smith path in V-groove paths).
 """
 
 from __future__ import annotations
@@ -189,6 +195,64 @@ def variants_table(paths: int, repeat: int, theta: float) -> list[dict]:
     return rows
 
 
+SMITH_CASES = [
+    ("fig. 7b (beckmann 0.6, kd 0.9, eta 1.5)", FIG7B),
+    ("ggx 0.5, kd 0.8, eta 1.5", {**FIG7B, "distribution": "ggx", "alpha": 0.5, "kd": 0.8}),
+    ("ggx 0.5, mirror", {"distribution": "ggx", "alpha": 0.5, "facet": "mirror"}),
+    ("beckmann 0.1, kd 0, eta 1.5", {**FIG7B, "alpha": 0.1, "kd": 0.0}),
+]
+
+
+def smith_table(paths: int, repeat: int, theta: float) -> list[dict]:
+    """Median paths per wall and per CPU second of each walk on each material, 1 and 2 threads."""
+    import numba
+
+    from vcavity.config import validate
+    from vcavity.kernels.smith import get_smith_kernel
+    from vcavity.kernels.trace import get_kernel
+    from vcavity.rng import BLOCK_SIZE, direction_key
+    from vcavity.simulate.pipeline import Scene, incident_vector
+
+    rows = []
+    for label, material in SMITH_CASES:
+        calls = {}
+        for surface, factory in (("v-cavity", get_kernel), ("smith", get_smith_kernel)):
+            cfg = validate({"material": {**material, "microsurface": surface},
+                            "incidence": {"theta_i_deg": [theta], "paths": paths}})
+            scene = Scene.of(cfg.material)
+            kernel = factory(scene.dist_kind, scene.facet_kind, scene.facet_variant)
+            d = cfg.incidence[0]
+            incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
+
+            def call(n_paths, threads, kernel=kernel, incident=incident, key=key, scene=scene, cfg=cfg):
+                numba.set_num_threads(threads)
+                return kernel(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths, scene.params,
+                              scene.facet_data, cfg.effective_max_bounces, cfg.max_order, cfg.sensor_resolution,
+                              threads, 1)
+
+            call(BLOCK_SIZE, 1)  # compile or load
+            calls[surface] = call
+        row = {"label": label}
+        for threads in (1, 2):
+            wall = {s: [] for s in calls}
+            cpu = {s: [] for s in calls}
+            for _ in range(repeat):
+                for surface, call in calls.items():  # alternated: both see the same load
+                    t0, c0 = time.perf_counter(), time.process_time()
+                    call(paths, threads)
+                    wall[surface].append(paths / (time.perf_counter() - t0))
+                    cpu[surface].append(paths / (time.process_time() - c0))
+            for surface in calls:
+                row[(surface, threads)] = statistics.median(wall[surface])
+                row[(surface, "cpu", threads)] = statistics.median(cpu[surface])
+        rows.append(row)
+        v, s = row[("v-cavity", "cpu", 1)], row[("smith", "cpu", 1)]
+        print(f"  {label:40s} {v / 1e6:7.2f} {s / 1e6:7.2f} {v / s:6.2f}x   "
+              f"{row[('v-cavity', 2)] / 1e6:7.2f} {row[('smith', 2)] / 1e6:7.2f} "
+              f"{row[('v-cavity', 2)] / row[('smith', 2)]:6.2f}x", flush=True)
+    return rows
+
+
 def numpy_rate(paths: int, theta: float) -> tuple[float, float]:
     """Paths per wall-clock and per CPU second of the plain-NumPy walk (fig. 7b), single-threaded."""
     sys.path.insert(0, str(ROOT))
@@ -249,9 +313,21 @@ def main(argv=None) -> int:
     parser.add_argument("--billion", action="store_true", help="also time 1e9 paths of fig. 7b, 2 threads")
     parser.add_argument("--plot", metavar="PNG", help="write a bar chart of the tables")
     parser.add_argument("--json", metavar="OUT", help="write every figure as JSON")
+    parser.add_argument("--smith", action="store_true", help="only the Smith walk beside the V-groove walk (4.)")
     args = parser.parse_args(argv)
     paths = int(args.paths)
     out = {"argv": sys.argv[1:], "date": time.strftime("%Y-%m-%d %H:%M")}
+    if args.smith:
+        print(f"4. Smith walk beside the V-groove walk, theta_i = {args.theta_deg} deg, {paths:,} paths per run, "
+              f"median of {args.repeat} alternated runs ({_load()})")
+        print(f"  {'':40s} {'M paths / CPU s, 1 thread':>27s}   {'M paths / wall s, 2 threads':>27s}")
+        print(f"  {'material':40s} {'V-cav.':>7s} {'Smith':>7s} {'ratio':>7s}   {'V-cav.':>7s} {'Smith':>7s} "
+              f"{'ratio':>7s}")
+        rows = smith_table(paths, args.repeat, args.theta_deg)
+        if args.json:
+            Path(args.json).write_text(json.dumps({**out, "smith": [{str(k): v for k, v in r.items()} for r in rows]},
+                                                  indent=1, default=str))
+        return 0
 
     baseline = None
     if not args.skip_baseline:

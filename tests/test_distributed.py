@@ -45,6 +45,16 @@ def test_dask_run_equals_local_run(executor):
     _same(local, remote)
 
 
+def test_dask_smith_run_equals_local_run(executor):
+    """The Smith walk (exact-f1, so its model too) on Dask workers: the local table bit for bit."""
+    raw = {**RAW, "material": {**RAW["material"], "microsurface": "smith"},
+           "simulation": {**RAW["simulation"], "estimator": "exact-f1"}}
+    cfg = config_mod.validate(raw)
+    local = Simulation(cfg, chunk_blocks=9).run()
+    remote = Simulation(cfg, chunk_blocks=4).run(executor=executor)
+    _same(local, remote)
+
+
 def test_dask_target_error_run_equals_local_run(executor):
     cfg = config_mod.validate({**RAW, "simulation": {**RAW["simulation"], "target_error": 0.02,
                                                      "max_paths": 4_000_000}})

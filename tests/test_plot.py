@@ -154,7 +154,7 @@ def test_albedo_data_share_from_counts(tables, tmp_path):
 
 
 BAD = [
-    (["--kind", "bogus"], "--kind = 'bogus': accepted slice, map, albedo, sweep"),
+    (["--kind", "bogus"], "--kind = 'bogus': accepted slice, map, albedo, sweep, versus"),
     (["--kind", "sweep"], "--kind = 'sweep': fig7b.h5 is a table of one run; --kind sweep draws a sweep file"),
     (["-o", "{tmp}/missing/x.png"], "does not exist"),
     (["-o", "{tmp}/x.bmp"], "unsupported file type '.bmp'"),

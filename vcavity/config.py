@@ -28,7 +28,7 @@ A run config has four tables::
     max_bounces = 10000            # bounce cap; capped paths are reported as truncated
     track_all_orders = true        # f_inf (order 0); false stops every path after K bounces
     sensor_resolution = 57         # N: N x N equal-solid-angle cells (57 -> 3249)
-    estimator = "analog"           # or "exact-f1": f1 from the exact V-cavity model; "paper";
+    estimator = "analog"           # or "exact-f1": f1 from the microsurface's exact model; "paper";
                                    # "exact" (specular facets): every order from the model, no path
     fold_symmetry = true           # default: fold wherever the mirror symmetry is exact
     target_error = 0.002           # optional: run each direction until this error ...
@@ -48,7 +48,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcavity.estimators import ESTIMATORS, EXACT, EXACT_F1, has_mirror_symmetry
+from vcavity.estimators import ANALOG, ESTIMATORS, EXACT, EXACT_F1, has_mirror_symmetry
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import ParameterError
@@ -412,9 +412,9 @@ def _validate_estimation(sim: dict, material: Material, incidence, track: bool, 
     estimator = sim.get("estimator", "analog")
     if estimator not in ESTIMATORS:
         _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in ESTIMATORS)}")
-    if material.microsurface == "smith" and estimator != "analog":
-        _fail("simulation.estimator", estimator, "is for the v-cavity microsurface so far; with "
-              "material.microsurface = 'smith' use 'analog'")
+    if material.microsurface == "smith" and estimator not in (ANALOG, EXACT_F1):
+        _fail("simulation.estimator", estimator, "is for the v-cavity microsurface (its estimates are "
+              "V-groove models); with material.microsurface = 'smith' use 'analog' or 'exact-f1'")
     if estimator == EXACT and not facets.is_specular(material.facet, material.facet_params):
         _fail("simulation.estimator", estimator, "is for specular facets only (mirror, conductor, "
               "interfaced_lambertian with kd = 0 and eta > 1), whose every order has a deterministic model; "

@@ -9,6 +9,7 @@ import math
 import numpy as np
 import pytest
 from numba import literally
+from scipy import integrate
 
 from vcavity._numba.jit import njit  # caches where vcavity's own code does
 
@@ -69,17 +70,26 @@ def ref_D(m, dist, p):
     return p["C"] * math.exp(-theta * theta / (2 * p["sigma"] ** 2)) / math.cos(theta)
 
 
+def ref_lambda_phong(a, e):
+    """Smith Lambda of Phong by quadrature: ``(1/a) int_a^inf (q - a) P2(q) dq`` (H eq. 43), with
+    Phong's marginal slope density ``P2(q) = (e + 2)/(2 pi) sqrt(pi) G(e/2 + 3/2)/G(e/2 + 2)
+    (1 + q^2)^-(e + 3)/2`` (from ``P22 = D cos^4 = (e + 2)/(2 pi) (1 + |s|^2)^-(e/2 + 2)``)."""
+    norm = (e + 2) / (2 * math.pi) * math.sqrt(math.pi) * math.exp(math.lgamma(0.5 * e + 1.5) - math.lgamma(0.5 * e + 2))
+    tail = integrate.quad(lambda q: (q - a) * norm * (1 + q * q) ** (-0.5 * (e + 3)), a, math.inf,
+                          epsabs=0.0, epsrel=1e-12, limit=200)[0]
+    return tail / a
+
+
 def ref_lambda(v, dist, p, fit=False):
-    """H eq. 69, 72, 80; W eq. 27 (fit); W sec. 5.2 (Phong)."""
+    """H eq. 69, 72, 80; W eq. 27 (fit); Phong by quadrature (:func:`ref_lambda_phong`)."""
     theta = math.acos(v[2])
     if theta == 0:
         return 0.0
     phi = math.atan2(v[1], v[0])
     if dist == "phong":
-        a = math.sqrt(0.5 * p["e"] + 1) / math.tan(theta)
-    else:
-        alpha_o = math.sqrt(math.cos(phi) ** 2 * p["ax"] ** 2 + math.sin(phi) ** 2 * p["ay"] ** 2)
-        a = 1.0 / (alpha_o * math.tan(theta))
+        return ref_lambda_phong(1.0 / math.tan(theta), p["e"])
+    alpha_o = math.sqrt(math.cos(phi) ** 2 * p["ax"] ** 2 + math.sin(phi) ** 2 * p["ay"] ** 2)
+    a = 1.0 / (alpha_o * math.tan(theta))
     if dist == "ggx":
         return (-1 + math.sqrt(1 + 1 / (a * a))) / 2
     if fit:

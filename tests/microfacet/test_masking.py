@@ -159,22 +159,19 @@ def test_smith_identity(module, ax, ay):
         assert abs(g1 * area / v[2] - 1.0) < 1e-6
 
 
-@pytest.mark.parametrize(("exponent", "bound"), [(2.0, 0.25), (20.0, 0.035), (200.0, 0.003)])
-def test_phong_lambda_is_walter_approximation(exponent, bound):
-    """Phong Lambda (W sec. 5.2) = Beckmann Lambda at alpha_b = sqrt(2/(alpha_p+2)), and its
-    G1 error against the exact Smith Lambda (numerical, H eq. 38/43) stays within the
-    accuracy documented in vcavity/microfacet/phong.py."""
+@pytest.mark.parametrize("exponent", [0.0, 2.0, 20.0, 200.0])
+def test_phong_lambda_is_exact(exponent):
+    """Phong's Lambda (the equal Student-t's, vcavity/microfacet/phong.py) satisfies the Smith
+    identity int G1 max(0, v.m) D(m) dw = v.n (H eq. 38/43) with Phong's own D, by quadrature,
+    to 1e-6; Walter's Beckmann-based form (W sec. 5.2), which it replaced, misses it by up to
+    24 % at exponent 2, which this tolerance would catch."""
     params = params_of(phong, exponent)
     alpha_b = math.sqrt(2.0 / (exponent + 2.0))
-    worst = 0.0
     for theta_v in np.radians([10.0, 30.0, 50.0, 65.0, 75.0, 82.0, 86.0, 89.0]):
         v = direction(theta_v, 0.4)
-        lam = phong.smith_lambda(*v, params)
-        lam_beckmann = beckmann.smith_lambda(*v, params_of(beckmann, alpha_b, alpha_b))
-        assert lam == pytest.approx(lam_beckmann, rel=1e-9, abs=1e-300)
-        exact = positive_projected_area(phong, params, v, alpha_b, alpha_b) / v[2] - 1.0
-        worst = max(worst, abs((1.0 + exact) / (1.0 + lam) - 1.0))
-    assert worst < bound
+        area = positive_projected_area(phong, params, v, alpha_b, alpha_b)
+        g1 = common.g1_smith(phong.smith_lambda(*v, params))
+        assert abs(g1 * area / v[2] - 1.0) < 1e-6
 
 
 def test_gaussian_smith_lambda_diverges():

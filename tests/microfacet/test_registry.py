@@ -49,7 +49,7 @@ def test_every_module_has_the_interface(module):
 
 def test_smith_status():
     assert {name: registry.get(name).SMITH for name in registry.NAMES} == {
-        "beckmann": "exact", "ggx": "exact", "phong": "approximate", "gaussian": "infinite",
+        "beckmann": "exact", "ggx": "exact", "phong": "exact", "gaussian": "infinite",
         "student_t": "exact"}
 
 

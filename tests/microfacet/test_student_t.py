@@ -127,7 +127,7 @@ def test_interface_and_parameters():
             parse_parameters(st.PARAMETERS, bad, "material", "x")
     assert st.lobe_width(values) == 0.2
     p = st.params_from(values)
-    assert p.dtype == np.float64 and p.shape == (8,)
+    assert p.dtype == np.float64 and p.shape == (13,)
     z = 2.0
     assert list(p[:6]) == [0.2, 0.5, 3.0, z, 1.0 / z, math.log(z)]
     c = special.poch(z, 0.5) / math.sqrt(math.pi * z)  # P2(0) = Gamma(z + 1/2) / (Gamma(z) sqrt(pi z))

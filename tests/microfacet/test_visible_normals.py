@@ -1,4 +1,4 @@
-"""Visible-normal samplers (``sample_visible`` of GGX and Beckmann, physics.md sec. 14)
+"""Visible-normal samplers (``sample_visible`` of GGX, Beckmann, Student-t and Phong, physics.md sec. 14)
 against their density, by chi-square.
 
 The density of the normals seen from ``v`` is ``<v, m>+ D(m)`` up to a constant. The test
@@ -19,7 +19,7 @@ from numba import njit
 from scipy import stats
 
 from tests.reference import materials as ref
-from vcavity.microfacet import beckmann, ggx
+from vcavity.microfacet import beckmann, ggx, phong, student_t
 
 N_SAMPLES = 400_000
 N_THETA, N_PHI, NODES = 16, 24, 12
@@ -48,13 +48,22 @@ def _expected(material, v, theta_edges):
     for i in range(N_THETA):
         a, b = theta_edges[i], theta_edges[i + 1]
         th = 0.5 * (b - a) * x + 0.5 * (a + b)
+        dth = np.full(NODES, 0.5 * (b - a))
+        if i == N_THETA - 1:
+            # the last ring reaches the horizon, where a heavy tail (Student-t with gamma < 2)
+            # makes the integrand ~ (pi/2 - theta)^(2 gamma - 4): integrable but singular.
+            # theta = pi/2 - s^10 makes it smooth in s for gamma >= 1.55
+            s_lo, s_hi = 0.0, (0.5 * math.pi - a) ** 0.1
+            s = 0.5 * (s_hi - s_lo) * x + 0.5 * (s_hi + s_lo)
+            th = 0.5 * math.pi - s**10
+            dth = 0.5 * (s_hi - s_lo) * 10.0 * s**9
         for j in range(N_PHI):
             c, d = phi_edges[j], phi_edges[j + 1]
             ph = 0.5 * (d - c) * x + 0.5 * (c + d)
             T, P = np.meshgrid(th, ph, indexing="ij")
             m = np.stack([np.sin(T) * np.cos(P), np.sin(T) * np.sin(P), np.cos(T)], axis=-1)
             f = np.maximum(m @ v, 0.0) * ref.ndf(material, m) * np.sin(T)
-            out[i, j] = 0.25 * (b - a) * (d - c) * np.einsum("i,j,ij->", w, w, f)
+            out[i, j] = 0.5 * (d - c) * np.einsum("i,j,ij->", w * dth, w, f)
     return out / out.sum()
 
 
@@ -72,15 +81,24 @@ CASES = [
     ("ggx", {"alpha": 1.2}, 100.0, 0.0),
     ("beckmann", {"alpha_x": 0.8, "alpha_y": 0.4}, 120.0, 37.0),
     ("beckmann", {"alpha": 1.2}, 100.0, 0.0),
+    # Student-t: GGX's tail (gamma = 2), heavier (1.6) and nearly Beckmann (50), from above and below
+    ("student_t", {"alpha": 0.5, "gamma": 2.0}, 60.0, 0.0),
+    ("student_t", {"alpha_x": 0.6, "alpha_y": 0.2, "gamma": 1.6}, 75.0, 37.0),
+    ("student_t", {"alpha_x": 0.3, "alpha_y": 0.5, "gamma": 50.0}, 85.0, 90.0),
+    ("student_t", {"alpha": 0.4, "gamma": 3.0}, 0.0, 0.0),
+    ("student_t", {"alpha_x": 0.8, "alpha_y": 0.4, "gamma": 1.8}, 120.0, 37.0),
+    ("student_t", {"alpha": 1.2, "gamma": 4.0}, 100.0, 0.0),
 ]
 
 
 @pytest.mark.parametrize("name, roughness, theta_deg, phi_deg", CASES)
 def test_visible_normals_follow_their_density(name, roughness, theta_deg, phi_deg):
-    module = {"ggx": ggx, "beckmann": beckmann}[name]
+    module = {"ggx": ggx, "beckmann": beckmann, "student_t": student_t, "phong": phong}[name]
     material = ref.parse_material({"distribution": name, "facet": "mirror", **roughness})
-    ax, ay = material.roughness["alpha_x"], material.roughness["alpha_y"]
-    params = np.array([ax, ay])
+    params = module.params_from(material.roughness)
+    # the θ grid follows the lobe's width (Phong's exponent n is like alpha sqrt(2/(n + 2)))
+    ax = material.roughness.get("alpha_x", math.sqrt(2.0 / (material.roughness.get("exponent", 0.0) + 2.0)))
+    ay = material.roughness.get("alpha_y", ax)
     t, p = math.radians(theta_deg), math.radians(phi_deg)
     v = np.array([math.sin(t) * math.cos(p), math.sin(t) * math.sin(p), math.cos(t)])
     m = _draw(module.sample_visible, v, params, N_SAMPLES, 11)

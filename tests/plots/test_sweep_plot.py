@@ -161,7 +161,7 @@ BAD = [
     ("grid", ["--kind", "slice"], "--kind = 'slice': grid.h5 is a sweep file (vcavity sweep), drawn with --kind sweep"),
     ("grid", ["--kind", "map"], "drawn with --kind sweep"),
     ("grid", ["--kind", "albedo"], "slice, map and albedo draw a table of vcavity run"),
-    ("grid", ["--scale", "log"], "--scale = 'log': applies to --kind slice and map; sweep plots are linear"),
+    ("grid", ["--scale", "log"], "--scale = 'log': applies to --kind slice, map and versus; sweep plots are linear"),
     ("grid", ["--order", "5"], "--order = 5: sweep grid.h5 has orders 0 (f_inf), 1, 2, 3"),
     ("grid", ["--theta-i", "45"], "--theta-i = 45: not an incident direction of sweep grid.h5 (theta_i_deg: 0, 60)"),
     ("grid", ["-o", "{tmp}/x.bmp"], "unsupported file type '.bmp'"),
@@ -189,3 +189,16 @@ def test_plotting_a_sweep_imports_no_numba(sweeps, tmp_path):
                           cwd=Path(__file__).resolve().parents[2])
     assert proc.returncode == 0, proc.stderr
     assert proc.stdout.splitlines()[-1] == "False"
+
+
+def test_a_swept_microsurface_is_a_line_not_the_shared_material(tmp_path):
+    from vcavity.io.sweep_table import open_sweep
+    from vcavity.plots.sweep import sweep_data, sweep_figure
+
+    path = synthetic_sweep(tmp_path / "m.h5", [("microsurface", ["v-cavity", "smith"]), ("alpha", [0.2, 0.5]),
+                                               ("theta_i_deg", [0.0])], _albedo, orders=(0, 1))
+    sweep = open_sweep(path)
+    data = sweep_data(sweep, [0], (1, 0))
+    title = sweep_figure(sweep, data).get_suptitle()
+    assert data.lines == [{"microsurface": "v-cavity"}, {"microsurface": "smith"}]
+    assert "microsurface," not in title and "beckmann, interfaced_lambertian facets" in title

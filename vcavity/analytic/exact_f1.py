@@ -62,15 +62,24 @@ ROUNDOFF = 1e-12
 MAX_RADIAL = 32
 
 
+#: The exact expectation of each microsurface's simulated f1, as a ``SingleBounceModel``
+#: masking: the V-groove walk's f1 is the V-cavity model, the Smith walk's the
+#: height-correlated Smith model (physics.md sec. 7 and 15).
+F1_MASKING = {"v-cavity": "vcavity", "smith": "smith-hc"}
+
+
 def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
                       n_nodes: int = START_BODY_NODES, n_sub_body: int = DEFAULT_BODY_SUB,
                       n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True):
-    """Per-cell integrals of the V-cavity single-bounce model and their error estimates.
+    """Per-cell integrals of the single-bounce model of the material's microsurface (the
+    V-cavity model, or the height-correlated Smith model for a Smith microsurface:
+    :data:`F1_MASKING`) and their error estimates.
 
     Parameters
     ----------
     material : vcavity.config.Material
-        Validated material (any registered distribution and facet).
+        Validated material (any registered distribution and facet; a Smith microsurface's
+        distribution must have a finite Smith Lambda).
     incident : array_like (3,)
         Unit direction toward the light, ``z > 0``.
     sensor : vcavity.sensor.grid.EqualAreaSensor
@@ -137,7 +146,8 @@ class CellModel:
             if int(value) < 2:
                 raise ValueError(f"{name} = {value}: must be >= 2 (the error estimate halves it)")
         self.sensor = sensor
-        model = SingleBounceModel(material, n_nodes=int(n_nodes))
+        self.masking = F1_MASKING[material.microsurface]
+        model = SingleBounceModel(material, masking=self.masking, n_nodes=int(n_nodes))
         self.parts = []
         if model.has_specular:
             self.parts.append(_Specular(model, incident, sensor, int(n_sub_specular), tol))
@@ -180,11 +190,15 @@ class CellModel:
                 over = np.flatnonzero(self.error > tol)
                 worst = over[np.argmax(self.error[over] - tol[over])]
                 raise ModelNotApplicable(
-                    f"exact f1: the V-cavity model's quadrature error stays above the tolerance in {over.size} "
+                    f"exact f1: the {_MODEL_NAMES[self.masking]} "
+                    f"model's quadrature error stays above the tolerance in {over.size} "
                     f"of {sensor.n_cells} cells (cell {worst}: {self.error[worst]:.3g} > {tol[worst]:.3g}) at the "
                     f"finest rules within bounded cost (body: {MAX_REFINE_NODES} nodes, {MAX_SUB_BODY} x "
                     f"{MAX_SUB_BODY} points per cell, {MAX_BODY_WORK:.0e} node-points; specular: {MAX_SUB} x "
                     f"{MAX_SUB} points, {MAX_SPECULAR_WORK:.0e} points, {MAX_RADIAL} radial nodes)")
+
+
+_MODEL_NAMES = {"vcavity": "V-cavity", "smith-hc": "height-correlated Smith", "smith": "Smith"}
 
 
 def _total(parts, sensor):
@@ -235,6 +249,7 @@ class _Body:
 
     def __init__(self, material, model, incident, sensor, n_nodes, n_sub):
         self.material, self.incident, self.sensor = material, incident, sensor
+        self.masking = model.masking
         self.models = {n_nodes: model}
         self.n_nodes = np.full(sensor.n_cells, n_nodes)
         self.n_sub = np.full(sensor.n_cells, n_sub)
@@ -256,7 +271,7 @@ class _Body:
 
     def _model(self, n_nodes):
         if n_nodes not in self.models:
-            self.models[n_nodes] = SingleBounceModel(self.material, n_nodes=n_nodes)
+            self.models[n_nodes] = SingleBounceModel(self.material, masking=self.masking, n_nodes=n_nodes)
         return self.models[n_nodes]
 
     def _body(self, n_nodes, n_sub, cells, coarse=False):
@@ -371,5 +386,5 @@ class _Specular:
         return progressed
 
 
-__all__ = ["f1_cell_integrals", "CellModel", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
+__all__ = ["F1_MASKING", "f1_cell_integrals", "CellModel", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
            "MAX_BODY_WORK", "MAX_SPECULAR_WORK", "guarded"]

@@ -159,7 +159,7 @@ def run_epilog() -> str:
     lines = ["config file (TOML):",
              "  [material]   microsurface = 'v-cavity' | 'smith' (default 'v-cavity': V-grooves; 'smith': "
              "Smith's random walk,",
-             f"               Heitz et al. 2016, for {', '.join(walkable)}, analog estimator; physics.md sec. 15)",
+             f"               Heitz et al. 2016, for {', '.join(walkable)}, analog or exact-f1 estimator; physics.md sec. 15)",
              f"               distribution = {' | '.join(repr(n) for n in distributions.NAMES)} "
              f"(default 'beckmann'), with its parameters:"]
     lines += [f"      {line}" for line in distributions.help_lines()]

@@ -28,6 +28,12 @@ kinds:
           alpha_y, sigma or exponent), one colour per combination of the other
           material axes (eta, kd, ...), one panel per theta_i, error bars +-2
           standard errors; slice, map and albedo draw a table of vcavity run
+  versus  two tables of one material (the default kind for two inputs; the microsurface
+          may differ, anything else only with --force), or two points of a sweep file
+          (--point AXIS=VALUE for every other point axis of several values; --versus AXIS
+          or AXIS=A,B, default microsurface): albedo per order against theta_i of A and B,
+          in-plane slices of f1, f2, f_inf of both per theta_i, and under each B - A with
+          bands of +-2 sigma (sigma = quadrature sum of both standard errors)
 
 examples:
   vcavity plot t.h5                                  # slices of every direction -> t_slice.png
@@ -35,6 +41,8 @@ examples:
   vcavity plot t.h5 --kind slice --order 1 3 inf --theta-i 30 60
   vcavity plot t.h5 --kind albedo -o albedo.pdf
   vcavity plot s.h5 --theta-i 45 --order 1 2 inf     # a sweep file -> s_sweep.png
+  vcavity plot vcav.h5 smith.h5 --theta-i 60          # A vs B -> vcav_versus.png
+  vcavity plot s.h5 --kind versus --point alpha=0.6   # microsurface v-cavity vs smith at alpha 0.6
 scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig7_eta1.5.toml.
 """
 
@@ -42,19 +50,19 @@ scripts/fig7.py draws the IL paper's figure 7 from runs/fig7_eta1.0.toml and fig
 def add_parser(subparsers) -> None:
     """Add the ``plot`` sub-parser (handler :func:`command`; the interface: :mod:`vcavity.cli`)."""
     plot = subparsers.add_parser(
-        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos) or a sweep file "
-        "(albedo against roughness) (PNG, PDF, SVG)",
+        NAME, help="draw a table (in-plane slices, hemispherical maps, albedos), a sweep file "
+        "(albedo against roughness) or two tables side by side (versus) (PNG, PDF, SVG)",
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
         "folder, an existing file without --overwrite, a link, FIFO or the input itself) is a one-line "
         "error with exit status 2, reported before anything is computed; the image is written atomically.",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     plot.set_defaults(handler=command)
-    plot.add_argument("table", metavar="OUT.h5", help="a table written by vcavity run, or a sweep file "
-                      "written by vcavity sweep")
+    plot.add_argument("table", metavar="OUT.h5", nargs="+", help="a table written by vcavity run, or a "
+                      "sweep file written by vcavity sweep; two tables for --kind versus")
     plot.add_argument("--kind", metavar="KIND",
-                      help="slice (default for a table), map, albedo; sweep (default for a sweep file) "
-                      "(see below)")
+                      help="slice (default for a table), map, albedo; sweep (default for a sweep file); "
+                      "versus (default for two tables) (see below)")
     plot.add_argument("-o", "--output", metavar="FILE",
                       help="image to write, .png, .pdf or .svg (default: <table>_<kind>.png beside the table)")
     plot.add_argument("--overwrite", action="store_true",
@@ -69,6 +77,13 @@ def add_parser(subparsers) -> None:
                       help="log or linear value scale of slices and maps (default: slice log, map linear)")
     plot.add_argument("--no-models", action="store_true",
                       help="slice: leave out the analytic models (they compile Numba code on first use)")
+    plot.add_argument("--point", nargs="+", metavar="AXIS=VALUE",
+                      help="versus of a sweep file: the point, a value of each point axis but the compared one")
+    plot.add_argument("--versus", metavar="AXIS[=A,B]",
+                      help="versus of a sweep file: the axis compared, with its two values unless it has "
+                      "exactly two (default microsurface)")
+    plot.add_argument("--force", action="store_true",
+                      help="versus: draw two tables whose materials differ in more than the microsurface")
 
 
 def command(args: argparse.Namespace) -> int:
@@ -78,15 +93,20 @@ def command(args: argparse.Namespace) -> int:
     """
     from vcavity.plots import PlotError, check_request, render
 
-    table = open_table_or_error(args.table, sweeps=True)  # a table or a sweep file (vcavity sweep)
-    if table is None:
-        return EXIT_BAD_INPUT
+    if len(args.table) > 2:
+        return error(f"inputs = {' '.join(args.table)}: at most two (two tables for --kind versus)")
+    sources = []
+    for path in args.table:  # tables or sweep files; the first unreadable one is the error
+        sources.append(open_table_or_error(path, sweeps=True))
+        if sources[-1] is None:
+            return EXIT_BAD_INPUT
     try:
-        request = check_request(table, kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
+        request = check_request(sources[0], kind=args.kind, output=args.output, theta_i_deg=args.theta_i,
                                 orders=args.order, scale=args.scale, models=not args.no_models,
-                                overwrite=args.overwrite)
+                                overwrite=args.overwrite, second=sources[1] if len(sources) > 1 else None,
+                                points=args.point, versus=args.versus, force=args.force)
     except PlotError as exc:
         return error(str(exc))
-    render(table, request)
+    render(sources[0], request)
     print(f"wrote {request.output}")
     return EXIT_OK

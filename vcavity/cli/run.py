@@ -65,8 +65,9 @@ def add_parser(subparsers) -> None:
     run.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                      help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
     run.add_argument("--estimator", choices=("analog", "exact-f1", "paper", "exact"),
-                     help="analog: every order simulated (default); exact-f1: f1 from the exact V-cavity "
-                     "single-bounce model, orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
+                     help="analog: every order simulated (default); exact-f1: f1 from the exact "
+                     "single-bounce model of the microsurface (V-cavity; height-correlated Smith for "
+                     "microsurface = 'smith'), orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
                      "on a facet, weighted by its lit projected area); exact: specular facets only (mirror, "
                      "conductor, kd = 0 dielectric): every order from the deterministic model, no path traced, "
                      "brdf_stderr = the model's error estimate (overrides [simulation] estimator)")

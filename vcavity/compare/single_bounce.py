@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from vcavity.analytic.cells import cell_integrals
+from vcavity.analytic.exact_f1 import F1_MASKING
 from vcavity.analytic.oren_nayar import OrenNayarModel
 from vcavity.analytic.single_bounce import (
     DEFAULT_BODY_NODES,
@@ -140,8 +141,8 @@ def build_model(material: Material, model: str, n_nodes: int = DEFAULT_BODY_NODE
 
 #: The exact expectation of each microsurface's f1 (what the chi-square tests use): the
 #: V-groove walk's f1 is the V-cavity model, the Smith walk's the height-correlated Smith
-#: model (physics.md sec. 7 and 15).
-EXACT_F1_MODEL = {"v-cavity": "vcavity", "smith": "smith-hc"}
+#: model (physics.md sec. 7 and 15); the exact-f1 estimator's model is the same.
+EXACT_F1_MODEL = F1_MASKING
 
 
 def compare_table(table, model: str | None = None, significance: float = DEFAULT_SIGNIFICANCE,

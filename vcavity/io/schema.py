@@ -75,8 +75,8 @@ DATASETS = {
                "Number of paths of this order that exited through this cell (raw, never "
                "folded; exact-f1: first-order exits are not binned, see unbinned_paths)"),
     "order_source": (("order",), "1", "how each order was obtained",
-                     "0 = simulated, 1 = analytic (the exact V-cavity single-bounce model, "
-                     "estimator exact-f1), 2 = analytic f1 plus simulated orders >= 2"),
+                     "0 = simulated, 1 = analytic (the exact single-bounce model of the "
+                     "microsurface, estimator exact-f1), 2 = analytic f1 plus simulated orders >= 2"),
     "albedo": (("incidence", "order"), "1", "albedo per order",
                "Fraction of paths leaving with this order: sum over cells of brdf * "
                "cell_projected_solid_angle"),

@@ -48,7 +48,9 @@ def _estimator_line(table) -> str:
         return (text + " (deterministic: every order from the every-order model of specular V-cavities, "
                 "no path traced; brdf_stderr and rel. error are the model's error estimates)")
     if table.order_source is not None and np.any(table.order_source == 1):
-        text += " (f1 is analytic: the exact V-cavity single-bounce model; orders >= 2 simulated)"
+        smith = (table.material or {}).get("microsurface") == "smith"
+        model = "height-correlated Smith" if smith else "V-cavity"
+        text += f" (f1 is analytic: the exact {model} single-bounce model; orders >= 2 simulated)"
     folded = table.folded if table.folded is not None else np.zeros(len(table.theta_i))
     if np.all(folded == 1):
         text += "; folded about the plane of incidence"

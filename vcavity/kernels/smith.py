@@ -9,9 +9,9 @@ facet event is the same code as in the V-groove walk (:func:`vcavity.facet.regis
 in a frame turned about ``z`` so that the facet normal lies in its x-z plane.
 
 Heights enter only through ``C1(h)``, the share of the surface below ``h``: the walk keeps
-``c = C1(h)`` itself (1 above the surface), which is the uniform height distribution's
-``(h + 1)/2`` and which makes plain that the result cannot depend on the height
-distribution (physics.md sec. 15).
+``log C1(h)`` (0 above the surface), the uniform height distribution's ``log((h + 1)/2)``,
+which makes plain that the result cannot depend on the height distribution (physics.md
+sec. 15).
 
 The kernel has the signature, results and reproducibility of the V-groove walk's
 (:func:`vcavity.kernels.trace.get_kernel`): per-block random streams, integer counts per
@@ -44,21 +44,24 @@ def _trace_smith_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_va
     Returns ``(state, outcome, bounces, wx, wy, wz)`` as the V-groove walk's ``_trace_path``.
     """
     wx, wy, wz = -ix, -iy, -iz
-    c = 1.0  # C1 of the current height: the share of the surface below it (above all of it)
+    # log C1 of the current height, C1 the share of the surface below it (0: above all of it);
+    # in logarithms each step costs one log instead of two powers
+    log_c = 0.0
     k = 0
     while True:
         state, u = next_uniform(state)
+        log_s = math.log(1.0 - u)  # 1 - u is uniform on (0, 1]: finite
         if wz > 0.0:
-            # travelling up: no facet in the way with probability G1 = c^Λ(w) (Heitz 2016 eq. 5)
+            # travelling up: no facet in the way with probability G1 = c^Λ(w) (Heitz 2016 eq. 5);
+            # else the facet's height has C1 = c / s^(1/Λ), s = 1 - u uniform above c^Λ
             lam = distributions.smith_lambda(dist_kind, wx, wy, wz, params)
-            escape = c ** lam
-            if u >= 1.0 - escape:
+            if log_s < lam * log_c:
                 break
-            c = c / (1.0 - u) ** (1.0 / lam)
+            log_c -= log_s / lam
         elif wz < 0.0:
             # travelling down it meets the surface surely; P(not above C1 = x) = (x/c)^(1 + Λ(-w))
             lam = distributions.smith_lambda(dist_kind, -wx, -wy, -wz, params)
-            c = c * u ** (1.0 / (1.0 + lam))
+            log_c += log_s / (1.0 + lam)
         # (a horizontal ray meets the surface at its own height)
         if k == max_bounces:
             return state, TRUNCATED, k, 0.0, 0.0, 0.0

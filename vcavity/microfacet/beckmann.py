@@ -1,7 +1,10 @@
 """Anisotropic Beckmann distribution of microfacet normals.
 
-``params`` layout (float64, shape (2,)): ``[alpha_x, alpha_y]`` (Beckmann
-``alpha = sqrt(2) sigma_slope``, physics.md sec. 1-2).
+``params`` layout (float64): ``[alpha_x, alpha_y]`` (Beckmann ``alpha = sqrt(2)
+sigma_slope``, physics.md sec. 1-2), then the visible-slope sampler's guess table
+(:mod:`vcavity.microfacet.beckmann_visible`); every function but :func:`sample_visible` reads
+the first two entries only, and :func:`sample_visible` takes a bare ``[alpha_x, alpha_y]``
+too (slower).
 
 - ``D(m) = exp(-tan^2 theta_m (cos^2 phi_m/alpha_x^2 + sin^2 phi_m/alpha_y^2))
   / (pi alpha_x alpha_y cos^4 theta_m)`` (H eq. 82, W eq. 25 when isotropic).
@@ -12,6 +15,9 @@
 
 import math
 
+import numpy as np
+
+from vcavity.microfacet import beckmann_visible as visible
 from vcavity.microfacet.common import (
     alpha_lobe_width,
     alpha_params_from,
@@ -33,9 +39,26 @@ _LOG_PI = math.log(math.pi)
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 
-#: ``[alpha_x, alpha_y]`` from the canonical values; the smaller alpha as the lobe width.
-params_from = alpha_params_from
+#: The smaller alpha as the lobe width.
 lobe_width = alpha_lobe_width
+_VISIBLE_PARAMS = 2 + (visible.TABLE_T + 1) * (visible.TABLE_U + 1)
+
+
+def params_from(values):
+    """Parameter array ``[alpha_x, alpha_y, table...]`` (module docstring) from the canonical values.
+
+    Parameters
+    ----------
+    values : mapping
+        ``alpha_x``, ``alpha_y`` (> 0), validated upstream.
+
+    Returns
+    -------
+    ndarray, shape (2 + 65 * 65,)
+        The roughness, then the visible-slope guess table of
+        :func:`vcavity.microfacet.beckmann_visible.guess_table` (the same for every alpha).
+    """
+    return np.concatenate((alpha_params_from(values), visible.guess_table()))
 
 
 @njit(cache=True)
@@ -203,66 +226,6 @@ def smith_lambda_walter_fit(vx, vy, vz, params):
     return (1.0 - 1.259 * a + 0.396 * a * a) / (3.535 * a + 2.181 * a * a)
 
 
-@njit(cache=True, inline="always")
-def _visible_slope_cdf(x, mu):
-    """``C(x) = ∫_-inf^x (mu - t) exp(-t^2)/sqrt(pi) dt`` for ``x <= mu`` (physics.md sec. 14)."""
-    return 0.5 * mu * math.erfc(-x) + 0.5 * _INV_SQRT_PI * math.exp(-x * x)
-
-
-@njit(cache=True)
-def _visible_slope(u, mu):
-    """The slope ``x <= mu`` with ``C(x) = u C(mu)``: Newton on ``log C`` inside a bisection bracket.
-
-    ``C`` is increasing on ``(-inf, mu]`` (its derivative ``(mu - x) exp(-x^2)/sqrt(pi)``)
-    and log-concave, so Newton on ``log C`` from the bracket's side converges in a few steps;
-    a step leaving the bracket is replaced by its midpoint. Exact to rounding: the loop ends
-    when the bracket or the step is within 4 ulp of ``x``.
-    """
-    target = math.log(max(u, 1e-300)) + math.log(_visible_slope_cdf(mu, mu))
-    hi = mu
-    lo = min(mu, 0.0) - 1.0
-    while math.log(max(_visible_slope_cdf(lo, mu), 1e-320)) > target and lo > -40.0:
-        lo = 2.0 * lo - 1.0
-    x = 0.5 * (lo + hi)
-    for _ in range(100):
-        c = _visible_slope_cdf(x, mu)
-        h = math.log(max(c, 1e-320)) - target
-        if h > 0.0:
-            hi = x
-        else:
-            lo = x
-        step = h * c / ((mu - x) * _INV_SQRT_PI * math.exp(-x * x) + 1e-300)
-        new = x - step
-        if not lo < new < hi:
-            new = 0.5 * (lo + hi)
-        if abs(new - x) <= 4e-16 * (1.0 + abs(x)) or hi - lo <= 4e-16 * (1.0 + abs(x)):
-            return new
-        x = new
-    return x
-
-
-@njit(cache=True)
-def _normal_quantile(u):
-    """``t`` with ``(1 + erf t)/2 = u``: the slope of ``exp(-t^2)/sqrt(pi)`` at probability ``u``.
-
-    Newton on the log of the lower tail ``erfc(-t)/2`` of the smaller side (symmetric), from
-    ``-sqrt(-log 2p)``; exact to rounding for ``u`` in ``(0, 1)``.
-    """
-    p = min(u, 1.0 - u)
-    p = max(p, 1e-300)
-    target = math.log(2.0 * p)
-    t = -math.sqrt(-target) if target < 0.0 else 0.0
-    for _ in range(60):
-        tail = math.erfc(-t)
-        step = (math.log(tail) - target) * tail / (2.0 * _INV_SQRT_PI * math.exp(-t * t))
-        t -= step
-        if t > 0.0:
-            t = 0.0
-        if abs(step) <= 4e-16 * (1.0 + abs(t)):
-            break
-    return t if u <= 0.5 else -t
-
-
 @njit(cache=True)
 def sample_visible(vx, vy, vz, u1, u2, params):
     """Sample ``m`` with the visible-normal density ``D_v(m) = <v, m>+ D(m) / (v.n (1 + Lambda(v)))``
@@ -271,7 +234,7 @@ def sample_visible(vx, vy, vz, u1, u2, params):
     In the stretched configuration (unit roughness, view ``v' = normalize(alpha_x vx,
     alpha_y vy, vz)``) the slope along ``v'``'s azimuth has the density ``(mu - x)+
     exp(-x^2)/sqrt(pi)`` up to a constant, ``mu = cot theta_v'``, sampled by inverting its
-    CDF (:func:`_visible_slope`); the slope across it is independent, ``exp(-y^2)/sqrt(pi)``
+    CDF (:mod:`vcavity.microfacet.beckmann_visible`); the slope across it is independent, ``exp(-y^2)/sqrt(pi)``
     (:func:`_normal_quantile`). The slopes are rotated to ``v'``'s azimuth and stretched back.
 
     Parameters
@@ -301,8 +264,10 @@ def sample_visible(vx, vy, vz, u1, u2, params):
         slope_y = r * math.sin(_TWO_PI * u2)
     else:
         mu = vz / sin_v  # cot of the stretched view
-        x = _visible_slope(u1, mu)
-        y = _normal_quantile(u2)
+        guess = (visible.guess(u1, mu, params[2:]) if params.shape[0] == _VISIBLE_PARAMS
+                 else math.inf)  # a bare [alpha_x, alpha_y]: the solver starts from its bracket
+        x = visible.solve_slope(u1, mu, guess)
+        y = visible.normal_quantile(u2)
         cos_v = sx / sin_v
         sin_vphi = sy / sin_v
         slope_x = cos_v * x - sin_vphi * y

@@ -1,26 +1,27 @@
 """Isotropic Phong distribution of microfacet normals (W eq. 30-32).
 
-``params`` layout (float64, shape (1,)): ``[exponent]`` (Walter's ``alpha_p``,
-``>= 0``; similar to Beckmann with ``alpha_b = sqrt(2/(alpha_p + 2))``).
+``params`` layout (float64, shape (14,)): ``[exponent]`` (Walter's ``alpha_p``, ``>= 0``)
+followed by the 13 parameters of the Student-t distribution it equals (below).
 
 - ``D(m) = (alpha_p + 2)/(2 pi) cos^alpha_p theta_m`` (W eq. 30, physics.md sec. 2).
 - Sampling: ``cos theta_m = (1 - u1)^(1/(alpha_p + 2))``, ``phi_m = 2 pi u2``
   (W eq. 31-32 with ``u1 -> 1 - u1``, the same distribution, so that ``u1 = 0``
   gives the normal and ``u1 -> 1`` stays finite).
-- Smith ``Lambda``: APPROXIMATE (``SMITH = "approximate"``).  The Smith
-  integral has no closed form for Phong; following W sec. 5.2 we use the
-  Beckmann Lambda (H eq. 69) with ``a = sqrt(0.5 alpha_p + 1)/tan theta_v``.
-  Measured against a numerical quadrature of the exact Smith Lambda, the
-  relative error of ``G1 = 1/(1 + Lambda)`` is at most about 24 % for
-  ``alpha_p = 2``, 3.2 % for 20, 0.26 % for 200, 0.034 % for 1000 (worst
-  near grazing); see tests/microfacet/test_masking.py.
+- In slopes, ``P22(s) = D(m) cos^4 theta_m = (alpha_p + 2)/(2 pi) (1 + |s|^2)^-(alpha_p/2 + 2)``:
+  exactly the Student-t distribution (:mod:`vcavity.microfacet.student_t`) with
+  ``gamma = alpha_p/2 + 2`` and ``alpha = sqrt(2/(alpha_p + 2))`` (then ``(gamma - 1)
+  alpha^2 = 1`` and ``1/(pi alpha^2) = (alpha_p + 2)/(2 pi)``; physics.md sec. 10). So the
+  Smith ``Lambda`` is exact (``SMITH = "exact"``): the STD's, and the visible normals are
+  sampled as the STD's. (Walter's sec. 5.2 approximates it by the Beckmann ``Lambda`` with
+  ``a = sqrt(0.5 alpha_p + 1)/tan theta_v``, whose ``G1`` is off by up to ~24 % at
+  ``alpha_p = 2``, 3 % at 20.)
 """
 
 import math
 
 import numpy as np
 
-from vcavity.microfacet.beckmann import smith_lambda_of_a
+from vcavity.microfacet import student_t
 from vcavity.microfacet.common import normal_sampler
 from vcavity.parameters import Number
 from vcavity._numba.jit import njit
@@ -29,14 +30,14 @@ NAME = "phong"
 DESCRIPTION = "D proportional to cos^exponent theta_m, isotropic (W eq. 30)"
 PARAMETERS = (Number("exponent", "Phong exponent alpha_p; like Beckmann alpha = sqrt(2/(alpha_p + 2))",
                      lo=0.0, example=20.0),)
-SMITH = "approximate"  # Walter's Beckmann-based form, W sec. 5.2 (see the module docstring)
+SMITH = "exact"  # the Student-t distribution's (see the module docstring)
 
 _TWO_PI = 2.0 * math.pi
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 
 def params_from(values):
-    """Parameter array ``[exponent]`` from the canonical values (validated upstream).
+    """Parameter array (module docstring) from the canonical values (validated upstream).
 
     Parameters
     ----------
@@ -45,9 +46,12 @@ def params_from(values):
 
     Returns
     -------
-    ndarray, shape (1,)
+    ndarray, shape (14,)
     """
-    return np.array([values["exponent"]], dtype=np.float64)
+    e = float(values["exponent"])
+    alpha = math.sqrt(2.0 / (e + 2.0))
+    equal = student_t.params_from({"alpha_x": alpha, "alpha_y": alpha, "gamma": 0.5 * e + 2.0})
+    return np.concatenate((np.array([e]), equal))
 
 
 def lobe_width(values):
@@ -64,7 +68,7 @@ def sample(u1, u2, params):
     cancellation near the normal.
 
     Arguments and results as in the distribution interface
-    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: Finite ``tan
+    (:mod:`vcavity.microfacet.registry`); ``params``: the module docstring's (``params[0]`` is the exponent). Returns: Finite ``tan
     theta_m >= 0`` and a unit azimuth pair (``(1, 0)`` when the tangent is 0).
     """
     if u1 >= 1.0:
@@ -87,7 +91,7 @@ def sample_disk(a, b, s, params):
     (W eq. 31).
 
     Arguments and results as in the distribution interface
-    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``.
+    (:mod:`vcavity.microfacet.registry`); ``params``: the module docstring's (``params[0]`` is the exponent).
     """
     inv = 1.0 / math.sqrt(s)
     tan2 = math.expm1(-2.0 * math.log(s) / (params[0] + 2.0))
@@ -99,7 +103,7 @@ def D(mx, my, mz, params):
     """Phong distribution of normals (W eq. 30).
 
     Arguments and results as in the distribution interface
-    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: ``D(m)`` in
+    (:mod:`vcavity.microfacet.registry`); ``params``: the module docstring's (``params[0]`` is the exponent). Returns: ``D(m)`` in
     1/sr; 0 for ``mz <= 0``.
     """
     if mz <= 0.0:
@@ -113,7 +117,7 @@ def pdf(mx, my, mz, params):
     """Sampling pdf ``D(m)(m.n)`` of :func:`sample_normal` (W eq. 24).
 
     Arguments and results as in the distribution interface
-    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: Density per
+    (:mod:`vcavity.microfacet.registry`); ``params``: the module docstring's (``params[0]`` is the exponent). Returns: Density per
     steradian.
     """
     if mz <= 0.0:
@@ -124,21 +128,21 @@ def pdf(mx, my, mz, params):
 
 @njit(cache=True)
 def smith_lambda(vx, vy, vz, params):
-    """APPROXIMATE Smith ``Lambda(v)`` for Phong (W sec. 5.2, H eq. 69).
-
-    Beckmann Lambda with ``a = sqrt(0.5 alpha_p + 1)/tan theta_v``; see the
-    module docstring for its measured accuracy.
+    """Exact Smith ``Lambda(v)`` for Phong: the equal Student-t distribution's (module docstring).
 
     Arguments and results as in the distribution interface
-    (:mod:`vcavity.microfacet.registry`); ``params``: ``[exponent]``. Returns: ``Lambda >=
-    0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0``.
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. Returns:
+    ``Lambda >= 0``; 0 for ``vz >= 1``, ``inf`` for ``vz <= 0``.
     """
-    if vz >= 1.0:
-        return 0.0
-    if vz <= 0.0:
-        return math.inf
-    sin_theta = math.sqrt(vx * vx + vy * vy)
-    if sin_theta <= 0.0:
-        return 0.0
-    a = math.sqrt(0.5 * params[0] + 1.0) * vz / sin_theta
-    return smith_lambda_of_a(a)
+    return student_t.smith_lambda(vx, vy, vz, params[1:])
+
+
+@njit(cache=True)
+def sample_visible(vx, vy, vz, u1, u2, params):
+    """Sample ``m`` with the visible-normal density ``<v, m>+ D(m)`` normalised: the equal
+    Student-t distribution's sampler (module docstring, physics.md sec. 14).
+
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring.
+    """
+    return student_t.sample_visible(vx, vy, vz, u1, u2, params[1:])

@@ -27,10 +27,11 @@ diverges and only V-cavity masking applies), and
   ``smith_lambda(vx, vy, vz, params)`` (physics.md sec. 3; documented fallback where
   not exact).
 
-Optional, so far (required once every distribution has one): ``sample_visible(vx, vy, vz,
-u1, u2, params) -> (mx, my, mz)``, a normal with the density of the normals visible from
-``v``, ``<v, m>+ D(m)`` normalised (physics.md sec. 14): the Smith random walk's facet
-sampling; :func:`has_visible_sampler` says which distributions offer it.
+Optional: ``sample_visible(vx, vy, vz, u1, u2, params) -> (mx, my, mz)``, a normal with the
+density of the normals visible from ``v``, ``<v, m>+ D(m)`` normalised (physics.md sec. 14):
+the Smith random walk's facet sampling; :func:`has_visible_sampler` says which distributions
+offer it. Every distribution with a finite Smith ``Lambda`` does; one whose ``SMITH`` is
+``"infinite"`` (the Gaussian) cannot be walked and need not.
 
 Arguments and results of the jitted scalars, the same in every module (each module's
 docstrings add only what is its own): ``mx, my, mz`` a unit microfacet normal; ``vx, vy,

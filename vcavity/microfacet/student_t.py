@@ -4,9 +4,11 @@ Ribardiere, Bringier, Meneveaux, Simonot 2017, "STD: Student's t-Distribution of
 Microfacet Based BSDFs", Computer Graphics Forum (Eurographics 2017), doi:10.1111/cgf.13137.
 The derivation of the formulas below is written up in physics.md sec. 10.
 
-``params`` layout (float64, shape (8,)), with ``z = gamma - 1`` and
-``R = Gamma(z + 1/2) / Gamma(z)``: ``[alpha_x, alpha_y, gamma, z, 1/z, log z, K, C]``, where
-``C = R / sqrt(pi z) = P2(0)`` and ``K = C z / (2 z - 1)``.
+``params`` layout (float64, shape (13,)), with ``z = gamma - 1`` and
+``R = Gamma(z + 1/2) / Gamma(z)``: ``[alpha_x, alpha_y, gamma, z, 1/z, log z, K, C, z', 1/z',
+log z', K', C']``, where ``C = R / sqrt(pi z) = P2(0)`` and ``K = C z / (2 z - 1)``; the
+primed constants are the same for ``z' = z + 1/2``, the shape of the cross slope's
+conditional density (:func:`sample_visible`).
 
 - Slopes: ``P22(s) = z^gamma / (pi ax ay (z + sx^2/ax^2 + sy^2/ay^2)^gamma)``, so
   ``D(m) = 1 / (pi ax ay cos^4 theta_m (1 + t2/z)^gamma)``, with
@@ -41,6 +43,7 @@ import math
 
 import numpy as np
 
+from vcavity.microfacet import student_t_tails as tails
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_sampler, stretched_slope
 from vcavity.parameters import Number, Roughness
 from vcavity._numba.jit import njit
@@ -59,9 +62,6 @@ _TWO_PI = 2.0 * math.pi
 _LOG_PI = math.log(math.pi)
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 _S_MIN = 2.0**-53  # sample_disk: s below this maps like u1 = 1 - 2^-53, as sample clamps it
-_CF_EPS = 2.0**-52
-_CF_MAXIT = 1000
-_FPMIN = 1e-300
 
 
 def _log_gamma_ratio_half(z):
@@ -95,15 +95,19 @@ def params_from(values):
 
     Returns
     -------
-    ndarray, shape (8,)
+    ndarray, shape (13,)
     """
     gamma = float(values["gamma"])
     z = gamma - 1.0
     c = math.exp(_log_gamma_ratio_half(z) - 0.5 * _LOG_PI)
     # z/(2z - 1): 2 gamma - 3 is exact for gamma <= 2; 2 - 1/z does not cancel above
     k = c * z / (2.0 * gamma - 3.0) if gamma <= 3.0 else c / (2.0 - 1.0 / z)
-    return np.array([values["alpha_x"], values["alpha_y"], gamma, z, 1.0 / z, math.log(z), k, c],
-                    dtype=np.float64)
+    # the cross slope's shape z' = z + 1/2 = gamma - 1/2; 2 z' - 1 = 2 z
+    zc = gamma - 0.5
+    cc = math.exp(_log_gamma_ratio_half(zc) - 0.5 * _LOG_PI)
+    kc = cc * zc / (2.0 * z)
+    return np.array([values["alpha_x"], values["alpha_y"], gamma, z, 1.0 / z, math.log(z), k, c,
+                     zc, 1.0 / zc, math.log(zc), kc, cc], dtype=np.float64)
 
 
 def lobe_width(values):
@@ -218,72 +222,6 @@ def pdf(mx, my, mz, params):
 
 
 @njit(cache=True)
-def _betacf(a, b, x):
-    """Lentz's continued fraction of ``I_x(a, b)`` (NR betacf); products reordered so that
-    ``b`` up to 1e308 cannot overflow."""
-    qab = a + b
-    qap = a + 1.0
-    qam = a - 1.0
-    c = 1.0
-    d = 1.0 - qab * x / qap
-    if abs(d) < _FPMIN:
-        d = _FPMIN
-    d = 1.0 / d
-    h = d
-    for m in range(1, _CF_MAXIT):
-        m2 = 2.0 * m
-        aa = m * ((b - m) * x) / ((qam + m2) * (a + m2))
-        d = 1.0 + aa * d
-        if abs(d) < _FPMIN:
-            d = _FPMIN
-        c = 1.0 + aa / c
-        if abs(c) < _FPMIN:
-            c = _FPMIN
-        d = 1.0 / d
-        h *= d * c
-        aa = -(a + m) * ((qab + m) * x) / ((a + m2) * (qap + m2))
-        d = 1.0 + aa * d
-        if abs(d) < _FPMIN:
-            d = _FPMIN
-        c = 1.0 + aa / c
-        if abs(c) < _FPMIN:
-            c = _FPMIN
-        d = 1.0 / d
-        delta = d * c
-        h *= delta
-        if abs(delta - 1.0) < _CF_EPS:
-            break
-    return h
-
-
-@njit(cache=True)
-def _g_gauss_cf(z, inv_a2):
-    """``G = 1 - 2F1(1, 1/2; z+1; -z/a^2) = E1/(E1 + f)``, ``f = 1 + E2/(1 + E3/(1 + ...))``.
-
-    Gauss's continued fraction of 2F1(0+1, 1/2; z+1)/2F1(0, 1/2; z), whose coefficients
-    ``E_{2n+1} = (n+1/2)(z+n) z / ((z+2n)(z+2n+1) a^2)`` and
-    ``E_{2n} = n (z+n-1/2) z / ((z+2n-1)(z+2n) a^2)`` are all positive (modified Lentz).
-    """
-    e1 = 0.5 * (z / (z + 1.0)) * inv_a2
-    f = 1.0
-    c = 1.0
-    d = 0.0
-    for k in range(2, _CF_MAXIT):
-        n = k // 2
-        if k % 2 == 1:
-            e = (n + 0.5) * ((z + n) / (z + 2.0 * n)) * (z / (z + 2.0 * n + 1.0)) * inv_a2
-        else:
-            e = n * ((z + n - 0.5) / (z + 2.0 * n - 1.0)) * (z / (z + 2.0 * n)) * inv_a2
-        d = 1.0 / (1.0 + e * d)
-        c = 1.0 + e / c
-        delta = c * d
-        f *= delta
-        if abs(delta - 1.0) < _CF_EPS:
-            break
-    return e1 / (e1 + f)
-
-
-@njit(cache=True)
 def smith_lambda_of_a(a, params):
     """Exact Smith ``Lambda(a) = (1/a) int_a^inf (q - a) P2(q) dq`` (module docstring).
 
@@ -299,28 +237,7 @@ def smith_lambda_of_a(a, params):
     float
         ``Lambda >= 0`` (``inf`` for ``a = 0`` or once ``K/a`` overflows, 0 once it underflows).
     """
-    if not a > 0.0:
-        return math.inf
-    if a == math.inf:
-        return 0.0
-    z = params[3]
-    inv_z = params[4]
-    if a < 1e150:
-        a2 = a * a
-        lx = math.log1p(a2 * inv_z)  # -log x
-    else:  # a^2 overflows; log1p(a^2/z) = log(a^2/z) + O(z/a^2)
-        a2 = math.inf
-        lx = 2.0 * math.log(a) - params[5]
-    t1 = params[6] * math.exp(-(z - 0.5) * lx) / a
-    # switch where NR's betacf needs the symmetry (measured: moving it to a^2 = 3 cuts the
-    # Gauss iterations from ~150 to ~80 but raises the worst error from 5e-14 to 3e-13)
-    if a2 < 1.5 / (1.0 + inv_z):
-        # x > (z + 1)/(z + 5/2): I_x(z, 1/2) = 1 - I_y(1/2, z), y = 1 - x = a^2/(z + a^2)
-        # y^(1/2) x^z / B(z, 1/2) = a P2(a) = C a x^(z + 1/2)
-        front = params[7] * a * math.exp(-(z + 0.5) * lx)
-        return t1 - 0.5 + front * _betacf(0.5, z, a2 / (z + a2))
-    g = _g_gauss_cf(z, 1.0 / a2)
-    return t1 * (0.5 * inv_z + (1.0 - 0.5 * inv_z) * g)
+    return tails.lambda_of_a(a, params[3], params[4], params[5], params[6], params[7])
 
 
 @njit(cache=True)
@@ -345,3 +262,55 @@ def smith_lambda(vx, vy, vz, params):
     if inv_a == math.inf:
         return math.inf
     return smith_lambda_of_a(1.0 / inv_a, params)
+
+
+@njit(cache=True)
+def sample_visible(vx, vy, vz, u1, u2, params):
+    """Sample ``m`` with the visible-normal density ``D_v(m) = <v, m>+ D(m) / (v.n (1 + Lambda(v)))``
+    (physics.md sec. 14; the construction of Heitz and d'Eon 2014 with the STD's marginals).
+
+    In the stretched configuration (unit roughness, view ``v' = normalize(alpha_x vx,
+    alpha_y vy, vz)``, ``mu = cot theta_v'``) the slope ``x`` along ``v'``'s azimuth has the
+    density ``(mu - x)+ P2(x)`` up to a constant, sampled by inverting its CDF
+    (:func:`vcavity.microfacet.student_t_tails.visible_slope`). Given ``x``, the slope
+    across is ``y = sqrt(z + x^2) tau`` with ``tau`` of density proportional to
+    ``(1 + tau^2)^-(z + 1)``: the marginal of shape ``z' = z + 1/2`` scaled by
+    ``1/sqrt(z')`` (:func:`vcavity.microfacet.student_t_tails.lower_quantile`). The
+    slopes are rotated to ``v'``'s azimuth and stretched back.
+
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: see the module docstring. ``v`` may lie
+    below the horizon (a ray travelling up in the Smith walk), not straight down. Returns: a
+    unit normal with ``mz > 0`` (``mz`` may round to 0 for slopes beyond ~1e16).
+    """
+    ax = params[0]
+    ay = params[1]
+    z, inv_z, log_z, k, c = params[3], params[4], params[5], params[6], params[7]
+    sx = ax * vx
+    sy = ay * vy
+    sin_v = math.sqrt(sx * sx + sy * sy)
+    if sin_v == 0.0:  # seen from the normal: every normal is visible in proportion to D(m)(m.n)
+        if u1 >= 1.0:
+            u1 = _ONE_MINUS_ULP
+        r = math.sqrt(z * math.expm1(-math.log1p(-u1) * inv_z))
+        slope_x = r * math.cos(_TWO_PI * u2)
+        slope_y = r * math.sin(_TWO_PI * u2)
+    else:
+        mu = vz / sin_v  # cot of the stretched view
+        x = tails.visible_slope(u1, mu, z, inv_z, log_z, k, c)
+        zc = params[8]
+        a = tails.lower_quantile(min(u2, 1.0 - u2), zc, params[9], params[10], params[11], params[12])
+        y = math.hypot(math.sqrt(z), x) * (a / math.sqrt(zc))
+        if u2 < 0.5:
+            y = -y
+        cos_v = sx / sin_v
+        sin_vphi = sy / sin_v
+        slope_x = cos_v * x - sin_vphi * y
+        slope_y = sin_vphi * x + cos_v * y
+    mx = -ax * slope_x
+    my = -ay * slope_y
+    # normalised without overflow for heavy-tailed slopes
+    big = max(abs(mx), abs(my), 1.0)
+    mx, my, mz = mx / big, my / big, 1.0 / big
+    norm = math.sqrt(mx * mx + my * my + mz * mz)
+    return mx / norm, my / norm, mz / norm

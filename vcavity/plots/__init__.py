@@ -16,6 +16,9 @@ reading pixels. The kinds (:data:`KIND_MODULES`, one module each, each with the 
 - ``"sweep"`` (:mod:`vcavity.plots.sweep`): of a sweep file (the default kind for one):
   albedo of f1 and f_inf against the roughness axis. Returns
   :class:`~vcavity.plots.sweep.SweepPlotData`. The other kinds draw a table of one run.
+- ``"versus"`` (:mod:`vcavity.plots.versus`): two tables of one material (or two points of
+  a sweep file, ``points`` and ``versus``), side by side and their difference ``B - A``
+  with ±2 sigma. Returns :class:`~vcavity.plots.versus.VersusData`.
 
 Only ``"slice"`` with models imports the analytic package (and Numba).
 """
@@ -31,6 +34,7 @@ from vcavity.plots import albedo as albedo_kind
 from vcavity.plots import map as map_kind
 from vcavity.plots import slice as slice_kind
 from vcavity.plots import sweep as sweep_kind
+from vcavity.plots import versus as versus_kind
 from vcavity.plots.request import (
     OUTPUT_SUFFIXES,
     PlotError,
@@ -45,7 +49,8 @@ from vcavity.plots.request import (
 )
 
 #: The plot kinds by name: adding one is a module like :mod:`vcavity.plots.map` plus a line here.
-KIND_MODULES = {kind.NAME: kind for kind in (slice_kind, map_kind, albedo_kind, sweep_kind)}
+KIND_MODULES = {kind.NAME: kind for kind in (slice_kind, map_kind, albedo_kind, sweep_kind,
+                                                    versus_kind)}
 KINDS = tuple(KIND_MODULES)
 SCALES = tuple(dict.fromkeys(s for kind in KIND_MODULES.values() for s in kind.SCALES))
 DEFAULT_SCALE = {name: kind.DEFAULT_SCALE for name, kind in KIND_MODULES.items()}
@@ -117,8 +122,37 @@ def _check_table_request(table, module, output, theta_i_deg, orders, scale, mode
                        scale=scale or module.DEFAULT_SCALE, models=chosen_models)
 
 
+def _check_versus(first, second, output, theta_i_deg, orders, scale, overwrite, points, versus, force):
+    """The request of ``--kind versus``: two tables, or two points of one sweep file."""
+    from vcavity.plots.sides import sweep_sides, table_side
+
+    name = first.path.name if first.path is not None else "the input"
+    if second is None:
+        if not _is_sweep(first):
+            raise PlotError(f"--kind 'versus': draws two tables (vcavity plot A.h5 B.h5 --kind versus) or two points "
+                            f"of a sweep file (--point, --versus); {name} is one table")
+        sides = sweep_sides(first, points, versus)
+        sources = (first.path,)
+    else:
+        for source in (first, second):
+            if _is_sweep(source):
+                raise PlotError(f"--kind 'versus': {source.path.name} is a sweep file; two inputs must be tables "
+                                "(two points of one sweep: vcavity plot SWEEP.h5 --kind versus --point ...)")
+        if points or versus:
+            raise PlotError(f"--{'point' if points else 'versus'}: chooses points of a sweep file; "
+                            f"{first.path.name} and {second.path.name} are tables")
+        sides = (table_side(first), table_side(second))
+        sources = (first.path, second.path)
+    default = first.path.with_name(f"{first.path.stem}_versus.png") if first.path is not None else None
+    if output is None and default is None:
+        raise PlotError("-o is needed: the sweep has no file to put the plot beside")
+    return versus_kind.check(*sides, output=output, theta_i_deg=theta_i_deg, orders=orders, scale=scale,
+                             overwrite=overwrite, force=force, default_output=default, sources=sources)
+
+
 def check_request(table, kind: str | None = None, output=None, theta_i_deg=None, orders=None,
-                  scale: str | None = None, models: bool = True, overwrite: bool = False) -> PlotRequest:
+                  scale: str | None = None, models: bool = True, overwrite: bool = False, second=None,
+                  points=(), versus: str | None = None, force: bool = False) -> PlotRequest:
     """Check a plot request against a table (or a sweep) without computing anything.
 
     Parameters
@@ -142,10 +176,18 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
     overwrite : bool
         Replace an existing output file (``--overwrite``); links, FIFOs, folders and the
         input itself never are (:func:`~vcavity.plots.request.check_output`).
+    second : vcavity.io.table.Table, optional
+        A second table: ``kind`` must be ``"versus"`` (its default then).
+    points : sequence of str
+        ``--kind versus`` of a sweep: ``AXIS=VALUE`` fixing point axes (:func:`vcavity.plots.sides.sweep_sides`).
+    versus : str, optional
+        ``--kind versus`` of a sweep: the compared axis, ``AXIS`` or ``AXIS=A,B``.
+    force : bool
+        ``--kind versus``: compare materials that differ in more than the microsurface.
 
     Returns
     -------
-    PlotRequest
+    PlotRequest or vcavity.plots.versus.VersusRequest
 
     Raises
     ------
@@ -154,10 +196,20 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
     """
     source = "sweep" if _is_sweep(table) else "table"
     if kind is None:
-        kind = _kinds_of(source)[0]
+        kind = "versus" if second is not None else _kinds_of(source)[0]
     if kind not in KIND_MODULES:
         raise PlotError(f"--kind = {kind!r}: accepted {', '.join(KINDS)}")
     module = KIND_MODULES[kind]
+    if kind != versus_kind.NAME:
+        if second is not None:
+            raise PlotError(f"--kind = {kind!r}: draws one input; two ({table.path.name}, {second.path.name}) "
+                            "are drawn with --kind versus")
+        for option, given in (("--point", points), ("--versus", versus), ("--force", force)):
+            if given:
+                raise PlotError(f"{option}: applies to --kind versus, not {kind}")
+    else:
+        check_scale(kind, scale)
+        return _check_versus(table, second, output, theta_i_deg, orders, scale, overwrite, points, versus, force)
     table_kinds = _kinds_of("table")
     if source == "sweep" and module.SOURCE != "sweep":
         raise PlotError(f"--kind = {kind!r}: {table.path.name if table.path else 'this'} is a sweep file "
@@ -182,21 +234,30 @@ def render(table, request: PlotRequest):
 def plot_table(table, kind: str | None = None, output=None, **options):
     """Check, draw and save one plot of ``table``; returns the plotted data.
 
-    ``options``: ``theta_i_deg``, ``orders``, ``scale``, ``models``, ``overwrite`` as in
-    :func:`check_request`. ``table`` may be a path (of a table or of a sweep file), an
-    open :class:`~vcavity.io.table.Table` or a :class:`~vcavity.io.sweep_table.SweepData`.
+    ``options``: ``theta_i_deg``, ``orders``, ``scale``, ``models``, ``overwrite``, ``second``,
+    ``points``, ``versus``, ``force`` as in :func:`check_request`. ``table`` (and ``second``)
+    may be a path (of a table or of a sweep file), an open :class:`~vcavity.io.table.Table`
+    or a :class:`~vcavity.io.sweep_table.SweepData`.
 
     Raises
     ------
     PlotError
         Bad request (one line), before anything is computed.
     """
+    table = _opened(table)
+    if options.get("second") is not None:
+        options["second"] = _opened(options["second"])
+    return render(table, check_request(table, kind, output, **options))
+
+
+def _opened(table):
+    """A table or sweep file read from a path; anything else as given."""
     if isinstance(table, (str, os.PathLike)):
         from vcavity.io.sweep_table import is_sweep_file, open_sweep
         from vcavity.io.table import open_table
 
-        table = open_sweep(table) if Path(table).is_file() and is_sweep_file(table) else open_table(table)
-    return render(table, check_request(table, kind, output, **options))
+        return open_sweep(table) if Path(table).is_file() and is_sweep_file(table) else open_table(table)
+    return table
 
 
 __all__ = ["DEFAULT_ORDERS", "DEFAULT_SCALE", "KINDS", "KIND_MODULES", "OUTPUT_SUFFIXES", "PlotError",

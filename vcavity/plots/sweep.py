@@ -191,6 +191,8 @@ def _shared_text(sweep, rough_name) -> str:
     shared.update({a.name: a.values[0] for a in sweep.axes if len(a.values) == 1
                    and a.name not in INCIDENCE_AXES and a.name != rough_name})
     text = format_material(shared)
+    if "microsurface" not in shared and any(a.name == "microsurface" for a in sweep.axes):
+        text = text.split(", ", 1)[1]  # swept: "v-cavity microsurface, ..." (the default) would be wrong
     text += "".join(f", {k} = {_value(v)}°" for k, v in sweep.scalars.items() if k == "phi_i_deg" and v != 0.0)
     return text
 

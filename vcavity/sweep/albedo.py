@@ -71,20 +71,43 @@ def albedo_stderr(sweep, order: int) -> np.ndarray | None:
     order : int
         Bounce order, 0 = f_inf.
     """
-    estimator = str(sweep.attrs.get("estimator", "analog"))
+    has_f1 = order_position(sweep, 1) is not None
+    return stderr_of(str(sweep.attrs.get("estimator", "analog")), order, albedo(sweep, order),
+                     albedo(sweep, 1) if has_f1 else None, sweep.data["paths"])
+
+
+def stderr_of(estimator: str, order: int, value, value_f1, paths) -> np.ndarray | None:
+    """The rule of :func:`albedo_stderr` on arrays: of one table's or one sweep's albedos.
+
+    Parameters
+    ----------
+    estimator : str
+        ``analog``, ``exact-f1``, ...: the table's or sweep's ``estimator`` attribute.
+    order : int
+        Bounce order of ``value``, 0 = f_inf.
+    value, value_f1 : array_like
+        Albedo of ``order`` and of order 1 (None when absent), per direction.
+    paths : array_like
+        Paths of each direction (0 where nothing is done: NaN comes out).
+
+    Returns
+    -------
+    ndarray or None
+        None where the estimator gives no error (module docstring).
+    """
     if estimator not in STDERR_RULES:
         return None
-    paths = np.asarray(sweep.data["paths"], dtype=np.float64)
+    paths = np.asarray(paths, dtype=np.float64)
     paths = np.where(paths > 0, paths, np.nan)  # points not done: NaN, not a division by zero
-    value = albedo(sweep, order)
+    value = np.asarray(value, dtype=np.float64)
     if estimator == "exact-f1":
         if int(order) == 1:
             return None
         if int(order) == 0:
-            if order_position(sweep, 1) is None:
+            if value_f1 is None:
                 return None
-            value = value - albedo(sweep, 1)  # the simulated part: exits after >= 2 bounces
+            value = value - np.asarray(value_f1, dtype=np.float64)  # the simulated part: exits after >= 2 bounces
     return _binomial(value, paths)
 
 
-__all__ = ["STDERR_RULES", "albedo", "albedo_stderr", "order_position", "stderr_rule"]
+__all__ = ["STDERR_RULES", "albedo", "albedo_stderr", "order_position", "stderr_of", "stderr_rule"]
