@@ -247,6 +247,79 @@ def seconds_arg(text: str) -> float:
                        "expected a number of seconds > 0", prefix="")
 
 
+#: The flags ``run`` and ``sweep`` share to override a config's budget: argparse dest ->
+#: (flag, the config field it overrides).
+BUDGET_FLAGS = {"paths": ("--paths", "incidence.paths"), "seed": ("--seed", "simulation.seed"),
+                "estimator": ("--estimator", "simulation.estimator"),
+                "target_error": ("--target-error", "simulation.target_error"),
+                "max_paths": ("--max-paths", "simulation.max_paths")}
+ESTIMATOR_CHOICES = ("analog", "exact-f1", "paper", "exact")
+
+
+def add_budget_flags(parser: argparse.ArgumentParser) -> None:
+    """Add ``--paths``, ``--seed``, ``--estimator``, ``--target-error`` and ``--max-paths``.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The sub-parser of ``run`` or ``sweep``; each flag overrides the config field
+        :data:`BUDGET_FLAGS` names (in a sweep: at every point).
+    """
+    parser.add_argument("--paths", type=count_arg(1, PATHS_MAX), metavar="N",
+                        help="paths per incident direction, e.g. 1e6 (overrides incidence.paths)")
+    parser.add_argument("--seed", type=seed_arg, metavar="S",
+                        help="random seed, 0 .. 2**64-1 (overrides simulation.seed)")
+    parser.add_argument("--estimator", choices=ESTIMATOR_CHOICES,
+                        help="analog: every order simulated (default); exact-f1: f1 from the exact "
+                        "single-bounce model of the microsurface (V-cavity; height-correlated Smith for "
+                        "microsurface = 'smith'), orders >= 2 simulated; paper: the IL paper's eq. 23 (paths "
+                        "start on a facet, weighted by its lit projected area); exact: specular facets only "
+                        "(mirror, conductor, kd = 0 dielectric): every order from the deterministic model, no "
+                        "path traced, brdf_stderr = the model's error estimate (overrides simulation.estimator)")
+    parser.add_argument("--target-error", type=fraction_arg, metavar="E",
+                        help="run each direction until the energy-weighted mean relative standard error of "
+                        "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths; with "
+                        "--estimator exact: the model's tolerance (relative L1 error of all orders, default "
+                        "0.001) (overrides simulation.target_error)")
+    parser.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
+                        help="with --target-error: the most paths per direction (default: the config's "
+                        "paths) (overrides simulation.max_paths)")
+
+
+def budget_overrides(args: argparse.Namespace) -> dict:
+    """The budget flags given, as ``{config field: value}`` (``{"incidence.paths": 20000}``).
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        Parsed by a parser with :func:`add_budget_flags`.
+    """
+    return {field: getattr(args, dest) for dest, (_, field) in BUDGET_FLAGS.items()
+            if getattr(args, dest, None) is not None}
+
+
+def name_the_flag(message: str, overrides: dict) -> str:
+    """A config error caused by an overridden field, naming the flag the value came from.
+
+    Parameters
+    ----------
+    message : str
+        ``"simulation.estimator = 'exact': ..."``: a config error starting with its field.
+    overrides : dict
+        :func:`budget_overrides` of the command.
+
+    Returns
+    -------
+    str
+        ``"--estimator = 'exact': ..."`` when that field was overridden, else ``message``.
+    """
+    field = message.split(" ", 1)[0]
+    for flag, name in BUDGET_FLAGS.values():
+        if field == name and name in overrides:
+            return flag + message[len(field):]
+    return message
+
+
 class Parser(argparse.ArgumentParser):
     """ArgumentParser whose epilog may be a function, called only when help is shown.
 

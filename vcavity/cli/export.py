@@ -26,6 +26,11 @@ def _epilog() -> str:
         "K = light that left after exactly K bounces. The output is written atomically and an",
         "existing file is replaced only with --overwrite. Formats and their conventions:",
         "docs/exports.md.",
+        "",
+        "albedo-lut: --layout cycles writes Blender Cycles' table_ggx_E / table_ggx_Eavg layout",
+        "(32 x 32 nodes r = sqrt(alpha) = i/31, mu = cos(theta_i) = i/31, clamped to 1e-4;",
+        "E[mu * 32 + r]; the sweep: runs/sweep_albedo_lut_cycles.toml). --orders 1 2 3 inf",
+        "writes E of each order listed and E_rest = E(f_inf) minus the listed finite orders.",
     ]
     return "\n".join(lines)
 
@@ -48,6 +53,13 @@ def add_parser(subparsers) -> None:
     export.add_argument("--theta-i", metavar="DEG",
                         help="csv: the incident polar angle of the slice, degrees as in the run config "
                         "(default: the table's only one; required when it has several)")
+    export.add_argument("--layout", choices=("vcavity", "cycles"),
+                        help="albedo-lut: vcavity (default: mu at the midpoints of equal bins, E[alpha][mu]) or "
+                        "cycles (Blender Cycles' 32 x 32 node grids of r = sqrt(alpha) and mu, E[mu * 32 + r]; "
+                        ".npz, .npy or .h)")
+    export.add_argument("--orders", nargs="+", metavar="K",
+                        help="albedo-lut: the orders to tabulate, e.g. 1 2 3 inf: E_f1, E_f2, E_f3, E (f_inf) and "
+                        "E_rest = E minus the listed finite orders (instead of E_f1 and the --order)")
     export.add_argument("--overwrite", action="store_true", help="replace an existing FILE")
 
 
@@ -77,6 +89,23 @@ def command(args: argparse.Namespace) -> int:
     if args.theta_i is not None and args.format != "csv":
         return error(f"--theta-i = {args.theta_i!r}: only --format csv takes an incident angle "
                       f"(--format {args.format} exports every incident direction)")
+    for flag, given in (("--layout", args.layout), ("--orders", args.orders)):
+        if given is not None and args.format != "albedo-lut":
+            return error(f"{flag} = {given if isinstance(given, str) else ' '.join(given)!r}: only --format "
+                         "albedo-lut takes it")
+    orders = None
+    if args.orders is not None:
+        if args.order != "0":
+            return error(f"--orders with --order = {args.order!r}: give one (--orders lists every order to write)")
+        try:
+            orders = tuple(parse_order(k) for k in args.orders)
+        except PlotError:
+            return error(f"--orders = {' '.join(args.orders)!r}: accepted are orders 1, 2, ... (or f1, f2, ...) "
+                         "and inf (f_inf, 0)")
+        repeated = sorted({k for k in orders if orders.count(k) > 1})
+        if repeated:
+            return error(f"--orders = {' '.join(args.orders)!r}: lists {order_name(repeated[0])} twice; each "
+                         "order once")
     source_path = Path(args.table)
     if not source_path.exists():
         return error(f"table {args.table!r}: no such file")
@@ -95,14 +124,17 @@ def command(args: argparse.Namespace) -> int:
         source = _open_source(source_path, args.table, module, is_sweep_file(source_path))
     except ExportRefused as exc:
         return error(str(exc))
-    request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i)
+    request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i,
+                            layout=args.layout or "vcavity", orders=orders, orders_text=tuple(args.orders or ()))
     try:
         export(source, args.format, request, out.path)
     except ExportRefused as exc:
         return error(str(exc))
     except OSError as exc:
         return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
-    print(f"wrote {out.path} ({args.format}, {order_name(order)})")
+    what = order_name(order) if orders is None else ", ".join(order_name(k) for k in orders)
+    layout = f", layout {args.layout}" if args.layout is not None else ""
+    print(f"wrote {out.path} ({args.format}{layout}, {what})")
     return EXIT_OK
 
 

@@ -20,16 +20,16 @@ from typing import TYPE_CHECKING, NamedTuple
 from vcavity.cli.common import (
     EXIT_INTERRUPTED,
     EXIT_OK,
-    PATHS_MAX,
     BadInput,
     Interrupted,
+    add_budget_flags,
+    budget_overrides,
     count_arg,
     error,
     first_line,
-    fraction_arg,
+    name_the_flag,
     run_epilog,
     seconds_arg,
-    seed_arg,
 )
 
 if TYPE_CHECKING:
@@ -58,25 +58,10 @@ def add_parser(subparsers) -> None:
     run.add_argument("--overwrite", action="store_true",
                      help="replace an existing table (atomically, only when the run completes); without it an "
                      "existing output is refused before anything runs")
-    run.add_argument("--paths", type=count_arg(1, PATHS_MAX), metavar="N",
-                     help="paths per incident direction, e.g. 1e6 (overrides the config)")
+    add_budget_flags(run)
     run.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
-    run.add_argument("--seed", type=seed_arg, metavar="S", help="random seed, 0 .. 2**64-1 (overrides the config)")
     run.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                      help="RNG blocks of 4096 paths per kernel call (default 512; does not change results)")
-    run.add_argument("--estimator", choices=("analog", "exact-f1", "paper", "exact"),
-                     help="analog: every order simulated (default); exact-f1: f1 from the exact "
-                     "single-bounce model of the microsurface (V-cavity; height-correlated Smith for "
-                     "microsurface = 'smith'), orders >= 2 simulated; paper: the IL paper's eq. 23 (paths start "
-                     "on a facet, weighted by its lit projected area); exact: specular facets only (mirror, "
-                     "conductor, kd = 0 dielectric): every order from the deterministic model, no path traced, "
-                     "brdf_stderr = the model's error estimate (overrides [simulation] estimator)")
-    run.add_argument("--target-error", type=fraction_arg, metavar="E",
-                     help="run each direction until the energy-weighted mean relative standard error of "
-                     "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths; with --estimator "
-                     "exact: the model's tolerance (relative L1 error of all orders, default 0.001)")
-    run.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
-                     help="with --target-error: the most paths per direction (default: the config's paths)")
     run.add_argument("--resume", action="store_true",
                      help="continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same "
                      "config and seed; the table equals an uninterrupted run's, bit for bit); a file at OUT.h5 is "
@@ -150,10 +135,6 @@ def simulate(args: argparse.Namespace) -> tuple[int, Written | None]:
     return status, Written(output.path, result, cfg) if status == EXIT_OK else None
 
 
-_FLAG_OF = {"simulation.estimator": "--estimator", "simulation.target_error": "--target-error",
-            "simulation.max_paths": "--max-paths"}
-
-
 def read_config(args: argparse.Namespace) -> RunConfig:
     """The run config: CONFIG (or the built-in run) with the flags that override it.
 
@@ -188,10 +169,7 @@ def read_config(args: argparse.Namespace) -> RunConfig:
             try:
                 cfg = cfg.replace(**overrides)
             except config_mod.ConfigError as exc:  # name the flag the value came from
-                field = str(exc).split(" ", 1)[0]
-                if field not in _FLAG_OF or field.split(".")[1] not in overrides:
-                    raise
-                raise config_mod.ConfigError(_FLAG_OF[field] + str(exc)[len(field):]) from None
+                raise config_mod.ConfigError(name_the_flag(str(exc), budget_overrides(args))) from None
     except config_mod.ConfigError as exc:
         raise BadInput(str(exc)) from None
     return cfg

@@ -10,7 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line
+from vcavity.cli.common import (EXIT_INTERRUPTED, EXIT_OK, add_budget_flags, budget_overrides, count_arg, error,
+                                first_line, name_the_flag)
 
 NAME = "sweep"
 
@@ -34,6 +35,11 @@ label list naming the points, label or label_<units>), e.g. a metal per waveleng
   k = [3.697, 2.455, 1.914]          # (gold, Johnson & Christy 1972)
 The lists it sets are stored as coordinates along the axis (eta(wavelength), ...).
 
+budget flags: --paths, --seed, --estimator, --target-error and --max-paths mean what they
+mean for vcavity run and override incidence.paths and the [simulation] keys at every
+point (e.g. a quick trial: --paths 20000); the file records them (attribute overrides),
+and --resume continues a sweep only with the same ones.
+
 output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
 readable with xarray.open_dataset(OUT, engine="h5netcdf"); written again after every
 point, so an interrupted sweep keeps its finished points: continue it with --resume.
@@ -56,6 +62,7 @@ def add_parser(subparsers) -> None:
                        help="continue the sweep in the existing output: run only the points not done "
                        "(refused if it holds another sweep)")
     sweep.add_argument("--overwrite", action="store_true", help="replace an existing output")
+    add_budget_flags(sweep)
     sweep.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
     sweep.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
                        help="RNG blocks of 4096 paths per kernel call (does not change results)")
@@ -81,8 +88,12 @@ def command(args: argparse.Namespace) -> int:
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
 
+    overrides = budget_overrides(args)
     try:
-        spec = sweep_mod.load(args.sweep)
+        spec = sweep_mod.load(args.sweep, overrides=overrides)
+    except sweep_mod.SweepError as exc:
+        return error(name_the_flag(str(exc), overrides))
+    try:
         output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
                                                    resume=args.resume, threads=args.threads)
     except (sweep_mod.SweepError, PreflightError) as exc:
@@ -100,7 +111,8 @@ def command(args: argparse.Namespace) -> int:
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
-          f"{data.n_done()} done, {total:,} paths in all", file=sys.stderr)
+          f"{data.n_done()} done, {total:,} paths in all"
+          + "".join(f"; {field} = {value!r} (override)" for field, value in overrides.items()), file=sys.stderr)
     try:
         return _trace(args, spec, output, data, executor, total)
     except KeyboardInterrupt:

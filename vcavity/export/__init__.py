@@ -65,12 +65,21 @@ class ExportRequest:
         The destination as given (:func:`export` fills it in): formats whose container
         follows the file's suffix (albedo-lut: ``.npz`` or ``.h``) check it in ``prepare``,
         since ``write`` is handed a temporary file name.
+    layout : str
+        ``--layout`` (albedo-lut): ``"vcavity"`` (default) or ``"cycles"``.
+    orders : tuple of int or None
+        ``--orders`` (albedo-lut): the orders to tabulate (0 = f_inf), None: not given.
+    orders_text : tuple of str
+        The orders as the user wrote them (for messages).
     """
 
     order: int = 0
     order_text: str = "0"
     theta_i_deg: str | None = None
     output: Path | None = None
+    layout: str = "vcavity"
+    orders: tuple[int, ...] | None = None
+    orders_text: tuple[str, ...] = ()
 
 
 def format_module(name: str):

@@ -12,13 +12,14 @@ uninterrupted one (apart from timings and the creation date).
 
 from __future__ import annotations
 
+import json
 from typing import Callable
 
 import numpy as np
 
 from vcavity.io import preflight
 from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
-from vcavity.sweep.spec import Point, Sweep, SweepError
+from vcavity.sweep.spec import Point, Sweep, SweepError, overrides_text
 
 
 def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
@@ -52,12 +53,19 @@ def resume_data(sweep: Sweep, path, shown: str) -> SweepData:
     Raises
     ------
     SweepError
-        The file is not a sweep, or holds another sweep (spec, base config or seed differ).
+        The file is not a sweep, was swept with other overrides (``--paths``, ``--seed``, ...),
+        or holds another sweep (spec, base config or seed differ).
     """
     try:
         stored = open_sweep(path)
     except SweepFormatError as exc:
         raise SweepError(f"--resume: --output = {shown!r} cannot be resumed: {exc}") from None
+    stored_overrides = stored.attrs.get("overrides") or overrides_text({})  # files before overrides: none
+    if stored_overrides != overrides_text(sweep.overrides):
+        raise SweepError(f"--resume: --output = {shown!r} was swept with the overrides "
+                         f"{_overrides_shown(json.loads(stored_overrides))}, this command gives "
+                         f"{_overrides_shown(sweep.overrides)}; give the same flags to continue it, another "
+                         "--output, or --overwrite to start again")
     if stored.attrs.get("spec_digest") != sweep.digest:
         raise SweepError(f"--resume: --output = {shown!r} holds another sweep (its axes, base config or seed "
                          "differ from this sweep file); give another --output, or --overwrite to start again")
@@ -65,6 +73,11 @@ def resume_data(sweep: Sweep, path, shown: str) -> SweepData:
     for name, array in data.data.items():
         array[...] = stored.data[name]
     return data
+
+
+def _overrides_shown(overrides: dict) -> str:
+    """``incidence.paths = 20000, simulation.seed = 3`` or ``none``."""
+    return ", ".join(f"{field} = {value!r}" for field, value in sorted(overrides.items())) or "none"
 
 
 def sweep_bytes(sweep: Sweep) -> int:

@@ -96,6 +96,7 @@ class Sweep:
     output: Path | None
     n_phi: int
     scalars: dict
+    overrides: dict = dataclasses.field(default_factory=dict)
 
     @property
     def n_directions(self) -> int:
@@ -125,7 +126,8 @@ class Sweep:
                  "max_order": np.int64(first.max_order), "track_all_orders": np.int8(first.track_all_orders),
                  "sensor_partition": sensor.partition, "sensor_resolution": np.int64(sensor.resolution),
                  "n_cells": np.int64(sensor.n_cells),
-                 "target_error": float("nan") if first.target_error is None else float(first.target_error)}
+                 "target_error": float("nan") if first.target_error is None else float(first.target_error),
+                 "overrides": overrides_text(self.overrides)}
         data = SweepData(axes=self.axes, point_axes=self.point_axes, order=np.array(first.orders, np.int64),
                          cells=cells, attrs=attrs, material=_shared_material(self.points),
                          scalars=dict(self.scalars))
@@ -255,8 +257,40 @@ def _check_distinct(field: str, values: list) -> None:
         seen[canonical] = i
 
 
-def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> Sweep:
+def overrides_text(overrides: dict) -> str:
+    """How a sweep file records the overrides of its sweep file: JSON ``{field: value}``,
+    keys sorted (``{}``: none)."""
+    return json.dumps(overrides, sort_keys=True)
+
+
+def _override(raw: dict, overrides: dict) -> dict:
+    """``raw`` with each ``"table.key": value`` of ``overrides`` set (a copy; a table that is
+    not a TOML table is left for :func:`_structure` to refuse)."""
+    raw = dict(raw)
+    for field, value in overrides.items():
+        table, key = field.split(".")
+        section = raw.get(table, {})
+        if isinstance(section, dict):
+            raw[table] = {**section, key: value}
+    return raw
+
+
+def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None,
+          overrides: dict | None = None) -> Sweep:
     """Validate a parsed sweep file: every point's config, before anything runs.
+
+    Parameters
+    ----------
+    raw : dict
+        The parsed TOML.
+    source : str
+        Where it came from (for messages and the file's ``source``).
+    base_dir : pathlib.Path, optional
+        Folder that relative paths in it are relative to.
+    overrides : dict, optional
+        ``{"incidence.paths": 20000, "simulation.seed": 3, ...}``: values that replace the
+        base's at every point (``vcavity sweep --paths``, ...); recorded in the sweep file
+        (attribute ``overrides``) and part of the sweep's digest through the configs.
 
     Raises
     ------
@@ -264,6 +298,8 @@ def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> Sw
         One line naming the field as written (``sweep.alpha[2]``, ``material.kd``), the
         value and what is accepted.
     """
+    overrides = dict(overrides or {})
+    raw = _override(raw, overrides)
     base, table, paired = _structure(raw)
     written = raw["sweep"]
     swept = point_axes(written, table, paired)
@@ -324,7 +360,7 @@ def parse(raw: dict, source: str = "<dict>", base_dir: Path | None = None) -> Sw
     scalars = {} if "phi_i_deg" in table else {"phi_i_deg": float(phis[0])}
     return Sweep(axes=axes, point_axes=tuple(a.name for a in swept), points=tuple(points), seed=base_cfg.seed,
                  digest=digest.hexdigest(), spec=spec, source=source, output=base_cfg.output,
-                 n_phi=len(phis), scalars=scalars)
+                 n_phi=len(phis), scalars=scalars, overrides=overrides)
 
 
 def _at_point(message: str, swept: tuple[PointAxis, ...], index) -> SweepError:
@@ -341,8 +377,8 @@ def _at_point(message: str, swept: tuple[PointAxis, ...], index) -> SweepError:
     return SweepError(message)
 
 
-def load(path: str | Path) -> Sweep:
-    """Read and validate a sweep file (TOML).
+def load(path: str | Path, overrides: dict | None = None) -> Sweep:
+    """Read and validate a sweep file (TOML), with ``overrides`` as in :func:`parse`.
 
     Raises
     ------
@@ -358,7 +394,7 @@ def load(path: str | Path) -> Sweep:
         raise SweepError(f"sweep file {str(path)!r}: not UTF-8 text; a TOML file is expected") from None
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"sweep file {str(path)!r}: invalid TOML: {exc}") from None
-    return parse(raw, source=str(path), base_dir=path.parent)
+    return parse(raw, source=str(path), base_dir=path.parent, overrides=overrides)
 
 
 __all__ = ["MAX_GRID_POINTS", "Point", "Sweep", "SweepError", "axis_keys", "load", "parse", "point_seed"]
