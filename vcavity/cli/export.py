@@ -109,6 +109,7 @@ def command(args: argparse.Namespace) -> int:
 def _open_source(path, shown: str, module, is_sweep: bool):
     """The table or sweep ``module`` exports; refuses the other kind in one line."""
     from vcavity.export import ExportRefused
+    from vcavity.io.table import TableFormatError, open_table
 
     if module.SOURCE == "sweep":
         if not is_sweep:
@@ -118,6 +119,8 @@ def _open_source(path, shown: str, module, is_sweep: bool):
 
         try:
             return open_sweep(path)
+        except TableFormatError as exc:  # its one line names the file and the dataset
+            raise ExportRefused(first_line(exc)) from None
         except (ValueError, OSError, KeyError) as exc:
             raise ExportRefused(f"sweep {shown!r}: cannot read it ({first_line(exc)})") from None
     if is_sweep:
