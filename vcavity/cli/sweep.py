@@ -76,7 +76,7 @@ def command(args: argparse.Namespace) -> int:
         try:
             parse_address(args.dask)
         except ValueError as exc:
-            return error(str(exc))
+            return error(f"--dask = {args.dask!r}: {exc}")
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -95,8 +95,8 @@ def command(args: argparse.Namespace) -> int:
 
         try:
             executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
-        except ImportError as exc:
-            return error(f"--dask = {args.dask!r}: {exc}")
+        except (ImportError, ValueError, OSError) as exc:  # OSError: no scheduler answers (a timeout)
+            return error(f"--dask = {args.dask!r}: cannot use it ({first_line(exc)})")
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
