@@ -3,7 +3,8 @@
 Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
 (config, arguments, output path, unreadable table, model not applicable, not enough memory
 or disk, a write that failed) with a one-line message and no output file; 130 interrupted
-(Ctrl-C: one line, no output file written or changed).
+(Ctrl-C: one line, no output file written or changed); 143 terminated (SIGTERM, handled
+as Ctrl-C).
 
 Each subcommand is a module of this package with the same three names: ``NAME``,
 ``add_parser(subparsers)`` (its sub-parser, whose handler is its ``command``) and
@@ -18,7 +19,7 @@ import os
 import sys
 
 from vcavity.cli import compare, export, info, plot, run, sweep, warmup
-from vcavity.cli.common import EXIT_INTERRUPTED, Interrupted, Parser
+from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, Interrupted, Parser
 
 #: The subcommands, in the order ``vcavity --help`` lists them.
 COMMANDS = (run, info, compare, plot, sweep, export, warmup)
@@ -78,7 +79,7 @@ def main(argv: list[str] | None = None) -> int:
         status = args.handler(args)
         if status != EXIT_INTERRUPTED:
             interrupts.raise_if_pending()
-        return status
+        return EXIT_TERMINATED if status == EXIT_INTERRUPTED and interrupts.terminated() else status
     except BaseException as exc:
         # after a SIGINT that compiled code swallowed, what fails next (e.g. Numba's
         # "no compiled object yet") is a consequence of the interrupt, not a bug to show
@@ -91,7 +92,7 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = restored_hook = _ignore_unraisable
         outcome = f"; {exc.outcome}" if isinstance(exc, Interrupted) else ""
         print(f"vcavity: interrupted{outcome}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if interrupts.terminated() else EXIT_INTERRUPTED
     finally:
         sys.unraisablehook = restored_hook
         interrupts.uninstall_main_handler()
@@ -112,7 +113,7 @@ def console_main() -> None:
     :func:`main` returned.
     """
     status = main()
-    if status == EXIT_INTERRUPTED:
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

@@ -20,6 +20,7 @@ EXIT_OK = 0
 EXIT_TEST_FAILED = 1  # compare: the chi-square test rejected the model
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a Ctrl-C
+EXIT_TERMINATED = 143  # 128 + SIGTERM: handled as Ctrl-C, reported as the signal it was
 
 
 class BadInput(Exception):
