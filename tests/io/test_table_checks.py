@@ -243,3 +243,16 @@ def test_every_command_refuses_a_sweep_with_done_2_in_one_line(tmp_path, capsys,
     lines = captured.err.splitlines()
     assert len(lines) == 1 and lines[0].startswith("vcavity: error: ") and "dataset 'done'" in lines[0]
     assert {p.name: p.read_bytes() for p in tmp_path.iterdir()} == before  # nothing written or changed
+
+
+def test_resume_of_a_default_output_names_it_as_the_default(tmp_path, capsys):
+    """Without -o the output is the sweep file's name with .h5: a refusal of --resume names
+    that default, not an --output that was never given."""
+    toml = tmp_path / "s.toml"
+    toml.write_text(SWEEP_TOML)
+    _edited(_sweep(tmp_path), tmp_path, _first("done", 2), name="s.h5")
+    assert main(["sweep", str(toml), "--resume", "-q"]) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and "--output" not in lines[0]
+    assert lines[0].startswith(f"vcavity: error: --resume: output (default: the config's name with .h5) = "
+                               f"{str(tmp_path / 's.h5')!r} cannot be resumed: dataset 'done'")
