@@ -16,10 +16,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 from vcavity.cli import compare, export, info, plot, run, sweep, warmup
-from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_TERMINATED, Interrupted, Parser
+from vcavity.cli.common import (EXIT_INTERRUPTED, EXIT_TERMINATED, Interrupted, Parser, forget_written,
+                                written_outcome)
 
 #: The subcommands, in the order ``vcavity --help`` lists them.
 COMMANDS = (run, info, compare, plot, sweep, export, warmup)
@@ -72,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
 
     args = argparse.Namespace()
     interrupts.reset()
+    forget_written()
     interrupts.install_main_handler()
     restored_hook = sys.unraisablehook
     try:
@@ -90,7 +93,8 @@ def main(argv: list[str] | None = None) -> int:
         # the process is ending on purpose, so such shutdown noise is not reported: the
         # silent hook stays installed after main returns, when those destructors run.
         sys.unraisablehook = restored_hook = _ignore_unraisable
-        outcome = f"; {exc.outcome}" if isinstance(exc, Interrupted) else ""
+        settled = exc.outcome if isinstance(exc, Interrupted) else written_outcome()
+        outcome = f"; {settled}" if settled else ""
         print(f"vcavity: interrupted{outcome}", file=sys.stderr)
         return EXIT_TERMINATED if interrupts.terminated() else EXIT_INTERRUPTED
     finally:
@@ -100,6 +104,16 @@ def main(argv: list[str] | None = None) -> int:
 
 def _ignore_unraisable(unraisable) -> None:
     """``sys.unraisablehook`` after an interrupt: report nothing."""
+
+
+def _late_interrupt(signum, frame) -> None:
+    """A signal after :func:`main` returned: one line (what was written), exit 130 or 143."""
+    settled = written_outcome()
+    try:
+        print(f"vcavity: interrupted{'; ' + settled if settled else ''}", file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # a closed stderr: nothing more can be said
+        pass
+    os._exit(EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED)
 
 
 def console_main() -> None:
@@ -113,6 +127,10 @@ def console_main() -> None:
     :func:`main` returned.
     """
     status = main()
+    # From here on the outcome is settled: a late Ctrl-C or SIGTERM (while Dask's cluster
+    # or the interpreter shuts down) ends the process at once with the same one line.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _late_interrupt)
     if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
         for stream in (sys.stdout, sys.stderr):
             try:

@@ -41,6 +41,33 @@ class Interrupted(KeyboardInterrupt):
         self.outcome = outcome
 
 
+_WRITTEN: list[str] = []  # outputs this command has completed (what a late Ctrl-C reports)
+
+
+def written(path) -> None:
+    """Record that the command's output ``path`` is complete.
+
+    A Ctrl-C (or SIGTERM) from then on, still in the command or while the process shuts
+    down (Dask's cluster, flushing), is reported as ``vcavity: interrupted; the output
+    was written: PATH`` with exit status 130 (143), as ``run`` reports its table.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    """
+    _WRITTEN.append(str(path))
+
+
+def written_outcome() -> str | None:
+    """The words after ``vcavity: interrupted; `` once an output is complete, else None."""
+    return f"the output was written: {', '.join(_WRITTEN)}" if _WRITTEN else None
+
+
+def forget_written() -> None:
+    """Start a command with nothing written (:func:`main` calls it; tests run in-process)."""
+    _WRITTEN.clear()
+
+
 def error(message) -> int:
     """Print the one-line error ``vcavity: error: MESSAGE`` on stderr.
 

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from vcavity.cli.common import EXIT_OK, error, first_line
+from vcavity.cli.common import EXIT_OK, error, first_line, written
 
 NAME = "export"
 
@@ -102,6 +102,7 @@ def command(args: argparse.Namespace) -> int:
         return error(str(exc))
     except OSError as exc:
         return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+    written(out.path)
     print(f"wrote {out.path} ({args.format}, {order_name(order)})")
     return EXIT_OK
 

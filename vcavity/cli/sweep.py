@@ -10,7 +10,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line
+from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, count_arg, error, first_line, written
 
 NAME = "sweep"
 
@@ -148,6 +148,7 @@ def _trace(args, spec, output, data, executor, total) -> int:
         finally:
             if bar is not None:
                 bar.close()
+    written(output.path)  # a Ctrl-C from here on (the summary, Dask's shutdown) says the file is complete
     print(f"wrote {output.path}")
     print(format_sweep_summary(open_sweep(output.path)))
     return EXIT_OK
