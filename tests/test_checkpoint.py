@@ -97,3 +97,24 @@ def test_the_output_path_does_not_change_the_digest():
     a = _config().to_dict()
     b = dict(a, output={"path": "/elsewhere/x.h5"})
     assert checkpoint.config_digest(a) == checkpoint.config_digest(b)
+
+
+@pytest.mark.parametrize("flags", [["--resume"], [], ["--overwrite"]])
+def test_a_folder_at_the_checkpoint_path_is_refused_before_compiling(tmp_path, capsys, flags):
+    """A folder at OUT.h5.checkpoint is no checkpoint: one line saying so (not "no
+    checkpoint", not a failed save after compiling and tracing), exit 2, the folder kept."""
+    from vcavity.cli import main
+
+    config = tmp_path / "c.toml"
+    config.write_text('[material]\ndistribution = "beckmann"\nalpha = 0.5\nkd = 0.5\n'
+                      '[incidence]\ntheta_i_deg = [0]\npaths = 4096\n[simulation]\nsensor_resolution = 5\n')
+    folder = tmp_path / "out.h5.checkpoint"
+    folder.mkdir()
+    (folder / "keep").write_text("mine")
+    assert main(["run", str(config), "-o", str(tmp_path / "out.h5"), "-q", *flags]) == 2
+    err = capsys.readouterr().err
+    assert "kernel ready" not in err
+    errors = [line for line in err.splitlines() if line.startswith("vcavity: error: ")]
+    assert errors == [f"vcavity: error: checkpoint {str(folder)!r} is a folder, not a checkpoint: the run saves "
+                      "its progress there; move it away or write the table elsewhere"]
+    assert (folder / "keep").read_text() == "mine" and not (tmp_path / "out.h5").exists()

@@ -479,6 +479,7 @@ def test_a_huge_azimuth_keeps_the_summary_narrow(good_table, tmp_path, capsys):
     odd.write_bytes(good_table.read_bytes())
     with h5py.File(odd, "r+") as h5:  # a table from elsewhere: any finite phi_i is readable
         h5["phi_i"][...] = 1e300
+        h5["phi_i_deg"][...] = np.degrees(1e300)  # the degrees must match the radians (open_table checks)
     assert _main(["info", str(odd)]) == 0
     out = capsys.readouterr().out
     assert "5.73e+301" in out and max(len(line) for line in out.splitlines()) < 140

@@ -195,3 +195,27 @@ def test_too_few_paths_is_not_testable_never_a_pass(tmp_path, capsys):
     assert main(["compare", str(path)]) == 1
     out = capsys.readouterr().out
     assert "result: NOT TESTABLE" in out and "result: PASS" not in out
+
+
+def test_paper_estimator_table_is_refused_in_one_line(tmp_path, capsys):
+    """A paper-estimator table's counts are sums of path weights, not path counts: compare's
+    multinomial tests cannot read them (the CLI once printed FAIL with z = -112.6 for a
+    0.0006 difference), so it is refused as exact-f1 tables are: one line, exit 2."""
+    from tests.io.conftest import MATERIAL, _consistent_run, _write
+    from vcavity.estimators import estimate_weighted
+    from vcavity.sensor.grid import EqualAreaSensor
+
+    sensor = EqualAreaSensor(5)
+    run = _consistent_run(3, sensor)
+    area = sensor.cell_projected_solid_angle
+    estimates = [estimate_weighted(c * 7, c * 49, int(n), 7.0, area) for c, n in zip(run["counts"], run["paths"])]
+    tabulated = {name: np.stack([getattr(e, name) for e in estimates]) for name in ("brdf", "brdf_stderr", "albedo")}
+    path = tmp_path / "paper.h5"
+    _write(path, run, sensor, material=dict(MATERIAL, alpha_y=0.3), tabulated=tabulated,
+           run_attrs={"estimator": "paper"})
+    with pytest.raises(ModelNotApplicable, match="paper estimator"):
+        compare_table(open_table(path))
+    assert main(["compare", str(path)]) == 2
+    captured = capsys.readouterr()
+    lines = captured.err.splitlines()
+    assert captured.out == "" and len(lines) == 1 and "paper estimator" in lines[0]

@@ -122,6 +122,72 @@ def test_exact_f1_adds_the_model_and_its_error():
     np.testing.assert_array_equal(order_source((1, 2), "analog"), [SIMULATED, SIMULATED])
 
 
+def _mirror_by_geometry(sensor, phi_deg):
+    """Each cell's mirror cell found in 3-D: the cell whose centre is nearest the reflected
+    centre (independent of the index arithmetic of ``mirror_cells``)."""
+    centres = np.asarray(sensor.cell_center)
+    reflected = reflect_about_plane(centres, phi_deg)
+    return np.argmin(np.linalg.norm(reflected[:, None, :] - centres[None, :, :], axis=2), axis=1)
+
+
+@pytest.mark.parametrize("phi_deg", [0.0, 45.0])
+def test_folded_exact_f1_holds_the_model_merged_over_mirror_pairs(phi_deg):
+    """Exact-f1 with the fold (the default for isotropic materials at phi_i = 0): the f1 row
+    of a pair cell is the mean of the model over the pair, (I_c + I_m) / (2 Omega_c), not
+    half of it or the cell's own; the model's error bound of the pair, e_c + e_m, is in the
+    standard error of f1 and of f_inf (added to the binomial one in quadrature)."""
+    sensor = EqualAreaSensor(9)
+    area = _projected(sensor)
+    rng = np.random.default_rng(8)
+    n = 40_000
+    counts = np.zeros((3, sensor.n_cells), np.int64)
+    counts[2] = rng.integers(0, 40, size=sensor.n_cells)
+    counts[0] = counts[2] + rng.integers(0, 4, size=sensor.n_cells)  # orders >= 2
+    integrals = rng.uniform(1e-4, 1e-2, size=sensor.n_cells)  # not symmetric: the merge shows
+    error = rng.uniform(1e-6, 1e-4, size=sensor.n_cells)
+    mirror = _mirror_by_geometry(sensor, phi_deg)
+    est = estimate_direction(counts, n, (0, 1, 2), area, mirror=mirror_cells(sensor, phi_deg),
+                             f1_integrals=integrals, f1_error=error)
+    pair = mirror != np.arange(sensor.n_cells)
+    assert pair.sum() > sensor.n_cells // 2
+    region = np.where(pair, 2.0, 1.0) * area
+    model = np.where(pair, integrals + integrals[mirror], integrals)
+    model_error = np.where(pair, error + error[mirror], error)
+    merged = np.where(pair, counts[0] + counts[0][mirror], counts[0])
+    np.testing.assert_allclose(est.brdf[1], model / region, rtol=1e-14)
+    np.testing.assert_allclose(est.brdf_stderr[1], model_error / region, rtol=1e-14)
+    np.testing.assert_allclose(est.brdf[0], (model + merged / n) / region, rtol=1e-14)
+    np.testing.assert_allclose(est.brdf_stderr[0],
+                               np.sqrt(merged * (1 - merged / n) / n**2 + model_error**2) / region, rtol=1e-13)
+    assert est.albedo[1] == pytest.approx(integrals.sum(), rel=1e-14)
+    assert np.sum(est.brdf[1] * area) == pytest.approx(integrals.sum(), rel=1e-13)
+
+
+@pytest.mark.parametrize("estimator", ["analog", "exact-f1", "paper"])
+@pytest.mark.parametrize("phi_deg", [None, 0.0, 45.0, 90.0])
+def test_albedo_is_the_sum_of_brdf_times_projected_solid_angle(estimator, phi_deg):
+    """For every order of every estimator, folded or not: albedo = sum_c brdf_c Omega_c,
+    what the table's albedo dataset promises (docs/hdf5-format.md) and open_table checks.
+    (The exact estimator's tables: tests/simulate/test_exact.py.)"""
+    from vcavity.estimators import estimate_weighted
+
+    sensor = EqualAreaSensor(8)
+    area = _projected(sensor)
+    rng = np.random.default_rng(9)
+    n = 30_000
+    counts = rng.integers(0, 60, size=(4, sensor.n_cells))
+    counts[0] = counts[1:].sum(axis=0) + rng.integers(0, 5, size=sensor.n_cells)
+    mirror = None if phi_deg is None else mirror_cells(sensor, phi_deg)
+    if estimator == "paper":
+        weights = counts * rng.integers(1, 500, size=counts.shape)
+        est = estimate_weighted(weights, weights * 300, n, 250.0, area, mirror=mirror)
+    else:
+        model = rng.uniform(0, 1e-2, size=sensor.n_cells) if estimator == "exact-f1" else None
+        est = estimate_direction(counts, n, (0, 1, 2, 3), area, mirror=mirror, f1_integrals=model,
+                                 f1_error=None if model is None else 0.01 * model)
+    np.testing.assert_allclose(est.albedo, np.sum(est.brdf * area, axis=1), rtol=1e-13)
+
+
 # --- the fold on simulated tables --------------------------------------------------------
 
 def _run(material, phi_deg, paths, seed, fold, theta_deg=60.0, resolution=19):

@@ -188,3 +188,27 @@ def test_resume_replaces_only_its_own_table(left_a_checkpoint, capsys, placed, w
     assert "resuming from out.h5.checkpoint" in capsys.readouterr().err
     assert not checkpoint.checkpoint_path(folder / "out.h5").exists()
     _same_tables(folder / "own.h5", folder / "out.h5")
+
+
+def test_sigterm_is_handled_as_ctrl_c_with_exit_143(tmp_path):
+    """SIGTERM (a scheduler's or `kill`'s stop) ends a run as Ctrl-C does: the checkpoint is
+    saved, one line says so, no temporary file is left, and the exit status is 143."""
+    (tmp_path / "run.toml").write_text(CONFIG.format(paths=30_000_000))
+    out = tmp_path / "out.h5"
+    process = _start(tmp_path, out)
+    deadline = time.time() + 120
+    while not checkpoint.checkpoint_path(out).exists() and time.time() < deadline:
+        time.sleep(0.02)
+    time.sleep(0.2)
+    process.send_signal(signal.SIGTERM)  # to the process alone, as `kill PID` does
+    code, _, err = _finish(process)
+    if code == 0:
+        pytest.skip("the run finished before SIGTERM arrived (machine too fast for this budget)")
+    assert code == 143, err
+    lines = [line for line in err.splitlines() if line.strip()]
+    assert "interrupted; checkpoint" in lines[-1] and "Traceback" not in err
+    assert not out.exists() and checkpoint.checkpoint_path(out).exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out.h5.checkpoint", "run.toml"]  # no temporary file
+    info = subprocess.run([sys.executable, "-m", "vcavity.cli", "info", str(checkpoint.checkpoint_path(out))],
+                          capture_output=True, text=True)
+    assert info.returncode == 0 and "paths done" in info.stdout

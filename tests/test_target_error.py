@@ -98,3 +98,34 @@ def test_cli_bad_flags(tmp_path, args, words):
     done = _cli("run", "-o", "x.h5", "-q", *args, cwd=tmp_path)
     assert done.returncode == 2 and words in done.stderr
     assert not (tmp_path / "x.h5").exists()
+
+
+@pytest.mark.parametrize("cap", [1, 2, 7])
+def test_a_few_landed_paths_do_not_reach_a_target(cap):
+    """One path traced and landed in one cell has a binomial error of exactly 0: that is no
+    error estimate, so the target (0.01 needs >= 1 / (2 0.01^2) = 5000 landed paths) is not
+    reached and the direction stops at its cap."""
+    result = simulate(_config(0.01, cap))
+    np.testing.assert_array_equal(result.paths, [cap, cap])
+    assert not np.any(result.target_reached)
+
+
+def test_the_landed_paths_rule_changes_no_honest_estimate():
+    """The rule's bound (estimators.error_estimate_exists): with no cell holding more than
+    half of N paths, sum_c sqrt(n_c (1 - n_c/N)) / sum_c n_c >= 1 / sqrt(2 n), so a relative
+    error <= E implies n >= 1 / (2 E^2) landed paths. Checked in plain NumPy on random
+    multinomial counts (seeded) of many shapes, including lobes in few cells."""
+    from vcavity.estimators import error_estimate_exists
+
+    rng = np.random.default_rng(11)
+    for _ in range(2000):
+        n_cells = int(rng.integers(2, 200))
+        paths = int(rng.integers(1, 10**6))
+        shares = rng.dirichlet(np.full(n_cells, rng.choice([0.05, 1.0, 20.0])))
+        shares *= rng.uniform(0.05, 1.0)  # the rest is absorbed
+        counts = rng.multinomial(paths, np.append(shares, 1.0 - shares.sum()))[:-1]
+        if counts.sum() == 0 or counts.max() > paths / 2:
+            continue
+        error = np.sum(np.sqrt(counts * (1.0 - counts / paths))) / counts.sum()
+        assert error_estimate_exists(int(counts.sum()), error * (1 + 1e-12))
+    assert not error_estimate_exists(1, 0.01) and error_estimate_exists(5000, 0.01)

@@ -227,6 +227,31 @@ def relative_error(estimate: DirectionEstimate, orders, projected_solid_angle) -
     return float(np.sum(estimate.brdf_stderr[row] * area)) / total
 
 
+def error_estimate_exists(landed: int, target: float) -> bool:
+    """Whether ``landed`` paths are enough for a relative error of f_inf to reach ``target``.
+
+    The stop rule's measure (:func:`relative_error`) comes from binomial estimates
+    ``sqrt(n_c (1 - n_c/N))``, which are 0, not small, when a few paths land (one path in
+    one cell of one path traced: error 0). With ``n = Σ_c n_c`` landed paths and no cell
+    holding more than half the paths, ``Σ_c sqrt(n_c (1 - n_c/N)) >= sqrt(n/2)``
+    (``sqrt`` is subadditive), so an honest estimate of at most ``E`` needs ``n >= 1 / (2 E^2)``:
+    below that the target counts as not reached (a non-degenerate run never stops
+    earlier than that anyway, so the rule changes no such run).
+
+    Parameters
+    ----------
+    landed : int
+        Paths that left the surface (binned, and exact-f1's unbinned first-order exits).
+    target : float
+        The target relative error, > 0.
+
+    Returns
+    -------
+    bool
+    """
+    return landed >= 0.5 / (target * target)
+
+
 def order_source(orders, estimator: str) -> np.ndarray:
     """Per-order flag: ``SIMULATED``, ``ANALYTIC`` or ``ANALYTIC_PLUS_SIMULATED`` (int8)."""
     flags = np.full(len(orders), SIMULATED, dtype=np.int8)
@@ -238,5 +263,5 @@ def order_source(orders, estimator: str) -> np.ndarray:
     return flags
 
 
-__all__ = ["ANALOG", "EXACT", "EXACT_F1", "ESTIMATORS", "PAPER", "DirectionEstimate", "estimate_direction", "estimate_weighted",
-           "has_mirror_symmetry", "mirror_cells", "order_source", "relative_error"]
+__all__ = ["ANALOG", "EXACT", "EXACT_F1", "ESTIMATORS", "PAPER", "DirectionEstimate", "error_estimate_exists",
+           "estimate_direction", "estimate_weighted", "has_mirror_symmetry", "mirror_cells", "order_source", "relative_error"]

@@ -4,7 +4,9 @@ A test that checks what an export or a plot does with a sweep's albedo needs a s
 whose values it knows: :func:`synthetic_sweep` writes one through
 :func:`vcavity.io.sweep_table.write_sweep` (the file format, not the code under test),
 with the albedo of every grid position and order given by a function of its coordinates.
-The sensor is one dummy cell: albedo consumers do not read cells.
+The sensor is the one-cell sensor (N = 1, the whole hemisphere): albedo consumers do
+not read cells, and its ``brdf`` is the albedo over the cell's projected solid angle, as
+the reader requires (vcavity.io.checks).
 """
 
 from __future__ import annotations
@@ -15,6 +17,7 @@ from pathlib import Path
 import numpy as np
 
 from vcavity.io.sweep_table import GridAxis, SweepData, write_sweep
+from vcavity.sensor.grid import EqualAreaSensor
 
 UNITS = {"theta_i_deg": "degree", "phi_i_deg": "degree", "sigma": "rad", "distribution": None}
 
@@ -49,8 +52,10 @@ def synthetic_sweep(path, axes, albedo_of, orders=(0, 1, 2), paths=10_000, estim
     shared = {"distribution": "beckmann", "facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}
     if material is None:
         material = {k: v for k, v in shared.items() if k not in point_axes}
-    cells = {"theta_o": np.array([0.5]), "phi_o": np.array([0.0]), "cell_center": np.array([[0.0, 0.0, 1.0]]),
-             "cell_solid_angle": np.array([2 * np.pi]), "cell_projected_solid_angle": np.array([np.pi])}
+    sensor = EqualAreaSensor(1)
+    cells = {"theta_o": sensor.cell_theta, "phi_o": sensor.cell_phi, "cell_center": sensor.cell_center,
+             "cell_solid_angle": sensor.cell_solid_angle,
+             "cell_projected_solid_angle": sensor.cell_projected_solid_angle}
     attrs = {"seed": np.uint64(seed), "spec": "{}", "spec_digest": "synthetic", "source": "synthetic.toml",
              "estimator": estimator, "sensor_resolution": np.int64(1), "n_cells": np.int64(1)}
     scalars = {} if any(a.name == "phi_i_deg" for a in grid) else {"phi_i_deg": 0.0}
@@ -65,5 +70,9 @@ def synthetic_sweep(path, axes, albedo_of, orders=(0, 1, 2), paths=10_000, estim
         sweep.data["done"][point] = 1
         sweep.data["paths"][where] = paths(coords) if callable(paths) else paths
         sweep.data["albedo"][where] = [albedo_of(coords, int(k)) for k in orders]
+        sweep.data["brdf"][where] = sweep.data["albedo"][where][:, None] / sensor.cell_projected_solid_angle
+        sweep.data["brdf_stderr"][where] = 0.0
+        for name in ("absorbed", "truncated", "degenerate"):
+            sweep.data[name][where] = 0.0
     write_sweep(Path(path), sweep)
     return Path(path)

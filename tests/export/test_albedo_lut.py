@@ -277,6 +277,27 @@ def test_refusals_are_one_line_exit_2_and_leave_files_alone(sweeps, tmp_path, ca
     assert _sha256(old) == digest and list(old.parent.iterdir()) == [old]
 
 
+@pytest.mark.parametrize("grid", ["nodes-with-ends", "right-ends", "midpoints-shifted"])
+def test_a_mu_grid_other_than_the_midpoints_is_refused(tmp_path, capsys, grid):
+    """The midpoint rule needs mu = (i + 0.5)/n; a node-centred grid (mu = i/(n - 1), the
+    ends included), the bins' right ends (mu = (i + 1)/n) or midpoints shifted by 1e-4 are
+    refused in one line, exit 2, nothing written; the midpoints themselves are accepted."""
+    n = 4
+    mu = {"nodes-with-ends": np.arange(n) / (n - 1), "right-ends": (np.arange(n) + 1.0) / n,
+          "midpoints-shifted": (np.arange(n) + 0.5) / n + 1e-4}[grid]
+    theta = sorted(float(np.degrees(np.arccos(np.clip(m, -1.0, 1.0)))) for m in mu)
+    source = synthetic_sweep(tmp_path / f"{grid}.h5", [("alpha", ALPHA), ("theta_i_deg", theta)], _albedo)
+    out = tmp_path / "out" / "lut.npz"
+    out.parent.mkdir()
+    assert _export(source, out) == 2
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 1 and f"are not the midpoints (i + 0.5)/{n} of {n} equal bins of [0, 1]" in lines[0]
+    assert list(out.parent.iterdir()) == []
+    midpoints = synthetic_sweep(tmp_path / "midpoints.h5", [("alpha", ALPHA), ("theta_i_deg", _midpoint_theta(n))],
+                                _albedo)
+    assert _export(midpoints, out) == 0 and out.is_file()
+
+
 # ---------------------------------------------------------------- a real sweep, end to end
 
 REAL_ALPHA = [1.0, 0.2, 0.6]

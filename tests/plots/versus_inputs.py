@@ -45,8 +45,8 @@ def random_table(path, theta_deg, seed, material=MATERIAL, resolution=9, orders=
 
 
 def random_sweep(path, axes, seed=3, resolution=9, orders=(0, 1, 2), pending=()):
-    """A sweep file (analog) whose brdf, brdf_stderr, albedo and paths are random at every
-    grid position; ``axes`` are ``(name, values)`` in file order; ``pending`` lists points
+    """A sweep file (analog) whose brdf, brdf_stderr and paths are random at every grid
+    position (albedo: the sum of brdf x projected solid angle); ``axes`` are ``(name, values)`` in file order; ``pending`` lists points
     (``{"alpha": 0.3, ...}``) left not done."""
     rng = np.random.default_rng(seed)
     sensor = EqualAreaSensor(resolution)
@@ -70,8 +70,12 @@ def random_sweep(path, axes, seed=3, resolution=9, orders=(0, 1, 2), pending=())
             continue
         sweep.data["done"][tuple(i for a, i in zip(grid, where) if a.name in point_axes)] = 1
         sweep.data["paths"][where] = rng.integers(100_000, 300_000)
-        sweep.data["albedo"][where] = rng.uniform(0.01, 0.9, len(orders))
-        sweep.data["brdf"][where] = rng.uniform(0.0, 1.0, (len(orders), sensor.n_cells))
+        brdf = rng.uniform(0.0, 1.0, (len(orders), sensor.n_cells)) * rng.uniform(0.01, 0.3, (len(orders), 1))
+        sweep.data["brdf"][where] = brdf
+        # the albedo a sweep stores is the sum of brdf x projected solid angle (open_sweep checks it)
+        sweep.data["albedo"][where] = brdf @ sensor.cell_projected_solid_angle
         sweep.data["brdf_stderr"][where] = rng.uniform(0.001, 0.01, (len(orders), sensor.n_cells))
+        for name in ("absorbed", "truncated", "degenerate"):
+            sweep.data[name][where] = 0.0
     write_sweep(path, sweep)
     return path

@@ -56,6 +56,9 @@ def test_an_exact_table_says_it_is_deterministic(tables):
     np.testing.assert_allclose(exact.albedo[:, 0] + exact.truncated, 1.0, atol=1e-9)
     assert np.all(exact.albedo[:, 1:].sum(axis=1) <= exact.albedo[:, 0] + 1e-12)
     assert np.all(exact.absorbed < 1e-9)
+    # every order's albedo is the sum of brdf x projected solid angle (plain NumPy)
+    np.testing.assert_allclose(exact.albedo, np.einsum("ikc,c->ik", exact.brdf, exact.cell_projected_solid_angle),
+                               rtol=1e-12)
     # brdf_stderr is the model's error estimate: small against the values, and never negative
     assert np.all(exact.brdf_stderr >= 0.0)
     assert np.all(exact.relative_error <= 1e-3)

@@ -139,7 +139,8 @@ class TableBRDF:
     Notes
     -----
     All methods broadcast directions of shape ``(..., 3)`` (world frame: macro normal
-    ``+z``, both directions pointing away from the surface; normalised here) and take
+    ``+z``, both directions pointing away from the surface; normalised here, without
+    under- or overflow; a NaN or infinite component raises ``ValueError``) and take
     ``order`` (0 = all orders, ``f_inf``; ``k`` = exactly ``k`` bounces), which must be in
     the table (``ValueError`` otherwise).
     """
@@ -249,7 +250,8 @@ class TableBRDF:
         ----------
         wi : array_like, shape (..., 3)
         u1, u2 : array_like, shape (...)
-            Independent uniforms in ``[0, 1)``; broadcast with ``wi[..., 0]``.
+            Independent uniforms in ``[0, 1)``; broadcast with ``wi[..., 0]``. A value
+            outside (or NaN) raises ``ValueError``: it has no direction to map to.
         order : int
 
         Returns
@@ -263,11 +265,12 @@ class TableBRDF:
             ``pdf(wi, wo)``, 1/sr.
         """
         _, _, cdf, total, _ = self._order_data(order)
-        wi = _unit(wi)
-        shape = np.broadcast_shapes(wi.shape[:-1], np.shape(u1), np.shape(u2))
+        wi = _unit(wi, "wi")
+        u1, u2 = _uniform("u1", u1), _uniform("u2", u2)
+        shape = np.broadcast_shapes(wi.shape[:-1], u1.shape, u2.shape)
         wi = np.broadcast_to(wi, shape + (3,)).reshape(-1, 3)
-        u1 = np.broadcast_to(np.asarray(u1, dtype=np.float64), shape).ravel()
-        u2 = np.broadcast_to(np.asarray(u2, dtype=np.float64), shape).ravel()
+        u1 = np.broadcast_to(u1, shape).ravel()
+        u2 = np.broadcast_to(u2, shape).ravel()
         rows, weights, angle = self._incident.serving(wi)
         mix = weights * total[rows]  # choose row j with probability ∝ w_j T_j
         norm = mix.sum(axis=1)
@@ -329,7 +332,7 @@ class TableBRDF:
             (linear in ``theta_i``); 0 where ``wi_z <= 0``.
         """
         albedo = self._order_data(order)[4]
-        wi = _unit(wi)
+        wi = _unit(wi, "wi")
         shape = wi.shape[:-1]
         rows, weights, _ = self._incident.serving(wi.reshape(-1, 3))
         return np.sum(weights * albedo[rows], axis=1).reshape(shape)
@@ -346,22 +349,51 @@ def _last_positive(mix, q):
     return np.where(positive[np.arange(mix.shape[0]), q], q, last)
 
 
-def _unit(v):
-    """``(..., 3)`` float64 unit vectors (a zero vector stays zero: below the horizon)."""
+def _unit(v, name="directions"):
+    """``(..., 3)`` float64 unit vectors (a zero vector stays zero: below the horizon).
+
+    Each vector is divided by its largest absolute component before its length is taken,
+    so a denormal or a huge non-unit vector (1e-320 or 1e300 components) gets the value
+    at its direction instead of a length that under- or overflows to 0 or inf.
+
+    Raises
+    ------
+    ValueError
+        The shape is not ``(..., 3)``, or a component is NaN or infinite (a caller's bug:
+        a silent 0 or NaN result would hide it in a render; docs/table-api.md).
+    """
     v = np.asarray(v, dtype=np.float64)
     if v.ndim < 1 or v.shape[-1] != 3:
-        raise ValueError(f"directions must have shape (..., 3), got {v.shape}")
-    norm = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
+        raise ValueError(f"{name} must have shape (..., 3), got {v.shape}")
+    finite = np.isfinite(v).all(axis=-1)
+    if not finite.all():
+        index = np.unravel_index(np.flatnonzero(~finite.ravel())[0], finite.shape)
+        raise ValueError(f"{name}[{', '.join(str(int(i)) for i in index)}] = {v[index].tolist()}: "
+                         "directions must be finite")
+    scale = np.max(np.abs(v), axis=-1, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore", under="ignore"):
+        scaled = np.where(scale > 0.0, v / scale, 0.0)  # largest component +-1: no under/overflow
+        unit = np.where(scale > 0.0, scaled / np.sqrt(np.sum(scaled * scaled, axis=-1, keepdims=True)), 0.0)
+        length = np.sqrt(np.sum(v * v, axis=-1, keepdims=True))
     # unit to rounding: left as given, so that normalising is idempotent and pdf(wi, wo) of
     # a sampled wo reproduces the pdf sample returned bit for bit
-    norm = np.where(np.abs(norm - 1.0) <= 1e-14, 1.0, norm)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(norm > 0.0, v / norm, 0.0)
+    return np.where(np.abs(length - 1.0) <= 1e-14, v, unit)
+
+
+def _uniform(name, u):
+    """``u`` as float64, refused unless every value is in ``[0, 1)`` (NaN included)."""
+    u = np.asarray(u, dtype=np.float64)
+    bad = ~((u >= 0.0) & (u < 1.0))
+    if bad.any():
+        index = np.unravel_index(np.flatnonzero(bad.ravel())[0], u.shape)
+        where = f"[{', '.join(str(int(i)) for i in index)}]" if u.ndim else ""
+        raise ValueError(f"{name}{where} = {u[index].item()!r}: must be in [0, 1)")
+    return u
 
 
 def _directions(wi, wo):
     """Broadcast, normalise and flatten two direction arrays: (M, 3), (M, 3), shape."""
-    wi, wo = np.broadcast_arrays(_unit(wi), _unit(wo))
+    wi, wo = np.broadcast_arrays(_unit(wi, "wi"), _unit(wo, "wo"))
     shape = wi.shape[:-1]
     return wi.reshape(-1, 3), wo.reshape(-1, 3), shape
 

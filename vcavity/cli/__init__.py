@@ -3,7 +3,8 @@
 Exit status: 0 success (compare: the test passed); 1 compare: the test failed; 2 bad input
 (config, arguments, output path, unreadable table, model not applicable, not enough memory
 or disk, a write that failed) with a one-line message and no output file; 130 interrupted
-(Ctrl-C: one line, no output file written or changed).
+(Ctrl-C: one line, no output file written or changed); 143 terminated (SIGTERM, handled
+as Ctrl-C).
 
 Each subcommand is a module of this package with the same three names: ``NAME``,
 ``add_parser(subparsers)`` (its sub-parser, whose handler is its ``command``) and
@@ -15,10 +16,12 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 from vcavity.cli import compare, export, info, plot, run, sweep, warmup
-from vcavity.cli.common import EXIT_INTERRUPTED, Interrupted, Parser
+from vcavity.cli.common import (EXIT_INTERRUPTED, EXIT_TERMINATED, Interrupted, Parser, forget_written,
+                                written_outcome)
 
 #: The subcommands, in the order ``vcavity --help`` lists them.
 COMMANDS = (run, info, compare, plot, sweep, export, warmup)
@@ -71,6 +74,7 @@ def main(argv: list[str] | None = None) -> int:
 
     args = argparse.Namespace()
     interrupts.reset()
+    forget_written()
     interrupts.install_main_handler()
     restored_hook = sys.unraisablehook
     try:
@@ -78,7 +82,7 @@ def main(argv: list[str] | None = None) -> int:
         status = args.handler(args)
         if status != EXIT_INTERRUPTED:
             interrupts.raise_if_pending()
-        return status
+        return EXIT_TERMINATED if status == EXIT_INTERRUPTED and interrupts.terminated() else status
     except BaseException as exc:
         # after a SIGINT that compiled code swallowed, what fails next (e.g. Numba's
         # "no compiled object yet") is a consequence of the interrupt, not a bug to show
@@ -89,9 +93,10 @@ def main(argv: list[str] | None = None) -> int:
         # the process is ending on purpose, so such shutdown noise is not reported: the
         # silent hook stays installed after main returns, when those destructors run.
         sys.unraisablehook = restored_hook = _ignore_unraisable
-        outcome = f"; {exc.outcome}" if isinstance(exc, Interrupted) else ""
+        settled = exc.outcome if isinstance(exc, Interrupted) else written_outcome()
+        outcome = f"; {settled}" if settled else ""
         print(f"vcavity: interrupted{outcome}", file=sys.stderr)
-        return EXIT_INTERRUPTED
+        return EXIT_TERMINATED if interrupts.terminated() else EXIT_INTERRUPTED
     finally:
         sys.unraisablehook = restored_hook
         interrupts.uninstall_main_handler()
@@ -99,6 +104,16 @@ def main(argv: list[str] | None = None) -> int:
 
 def _ignore_unraisable(unraisable) -> None:
     """``sys.unraisablehook`` after an interrupt: report nothing."""
+
+
+def _late_interrupt(signum, frame) -> None:
+    """A signal after :func:`main` returned: one line (what was written), exit 130 or 143."""
+    settled = written_outcome()
+    try:
+        print(f"vcavity: interrupted{'; ' + settled if settled else ''}", file=sys.stderr, flush=True)
+    except (OSError, ValueError):  # a closed stderr: nothing more can be said
+        pass
+    os._exit(EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED)
 
 
 def console_main() -> None:
@@ -112,7 +127,11 @@ def console_main() -> None:
     :func:`main` returned.
     """
     status = main()
-    if status == EXIT_INTERRUPTED:
+    # From here on the outcome is settled: a late Ctrl-C or SIGTERM (while Dask's cluster
+    # or the interpreter shuts down) ends the process at once with the same one line.
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, _late_interrupt)
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
         for stream in (sys.stdout, sys.stderr):
             try:
                 stream.flush()

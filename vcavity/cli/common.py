@@ -20,6 +20,7 @@ EXIT_OK = 0
 EXIT_TEST_FAILED = 1  # compare: the chi-square test rejected the model
 EXIT_BAD_INPUT = 2
 EXIT_INTERRUPTED = 130  # 128 + SIGINT, as shells report a Ctrl-C
+EXIT_TERMINATED = 143  # 128 + SIGTERM: handled as Ctrl-C, reported as the signal it was
 
 
 class BadInput(Exception):
@@ -38,6 +39,33 @@ class Interrupted(KeyboardInterrupt):
     def __init__(self, outcome: str):
         super().__init__(outcome)
         self.outcome = outcome
+
+
+_WRITTEN: list[str] = []  # outputs this command has completed (what a late Ctrl-C reports)
+
+
+def written(path) -> None:
+    """Record that the command's output ``path`` is complete.
+
+    A Ctrl-C (or SIGTERM) from then on, still in the command or while the process shuts
+    down (Dask's cluster, flushing), is reported as ``vcavity: interrupted; the output
+    was written: PATH`` with exit status 130 (143), as ``run`` reports its table.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    """
+    _WRITTEN.append(str(path))
+
+
+def written_outcome() -> str | None:
+    """The words after ``vcavity: interrupted; `` once an output is complete, else None."""
+    return f"the output was written: {', '.join(_WRITTEN)}" if _WRITTEN else None
+
+
+def forget_written() -> None:
+    """Start a command with nothing written (:func:`main` calls it; tests run in-process)."""
+    _WRITTEN.clear()
 
 
 def error(message) -> int:

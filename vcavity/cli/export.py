@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from vcavity.cli.common import EXIT_OK, error, first_line
+from vcavity.cli.common import EXIT_OK, error, first_line, written
 
 NAME = "export"
 
@@ -132,6 +132,7 @@ def command(args: argparse.Namespace) -> int:
         return error(str(exc))
     except OSError as exc:
         return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+    written(out.path)
     what = order_name(order) if orders is None else ", ".join(order_name(k) for k in orders)
     layout = f", layout {args.layout}" if args.layout is not None else ""
     print(f"wrote {out.path} ({args.format}{layout}, {what})")
@@ -141,6 +142,7 @@ def command(args: argparse.Namespace) -> int:
 def _open_source(path, shown: str, module, is_sweep: bool):
     """The table or sweep ``module`` exports; refuses the other kind in one line."""
     from vcavity.export import ExportRefused
+    from vcavity.io.table import TableFormatError, open_table
 
     if module.SOURCE == "sweep":
         if not is_sweep:
@@ -150,6 +152,8 @@ def _open_source(path, shown: str, module, is_sweep: bool):
 
         try:
             return open_sweep(path)
+        except TableFormatError as exc:  # its one line names the file and the dataset
+            raise ExportRefused(first_line(exc)) from None
         except (ValueError, OSError, KeyError) as exc:
             raise ExportRefused(f"sweep {shown!r}: cannot read it ({first_line(exc)})") from None
     if is_sweep:

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import argparse
 
-from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, error, open_table_or_error
+from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, error, open_table_or_error, written
 
 NAME = "plot"
 
@@ -108,5 +108,6 @@ def command(args: argparse.Namespace) -> int:
     except PlotError as exc:
         return error(str(exc))
     render(sources[0], request)
+    written(request.output)
     print(f"wrote {request.output}")
     return EXIT_OK

@@ -215,6 +215,13 @@ def preflight(args: argparse.Namespace, cfg):
         if args.threads is not None and args.threads > numba.config.NUMBA_NUM_THREADS:
             raise checks.PreflightError(f"--threads = {args.threads}: must be between 1 and "
                                         f"{numba.config.NUMBA_NUM_THREADS} (cores here)")
+        if getattr(args, "dask", None) is not None:  # the address's form, before anything compiles
+            from vcavity.simulate.dask import parse_address
+
+            try:
+                parse_address(args.dask)
+            except ValueError as exc:
+                raise checks.PreflightError(f"--dask = {args.dask!r}: {exc}") from None
         n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
         checks.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
         removed = checks.probe_output(out)  # creates and removes a file: /proc, /sys, read-only

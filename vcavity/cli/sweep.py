@@ -11,7 +11,7 @@ import argparse
 import sys
 
 from vcavity.cli.common import (EXIT_INTERRUPTED, EXIT_OK, add_budget_flags, budget_overrides, count_arg, error,
-                                first_line, name_the_flag)
+                                first_line, name_the_flag, written)
 
 NAME = "sweep"
 
@@ -83,7 +83,7 @@ def command(args: argparse.Namespace) -> int:
         try:
             parse_address(args.dask)
         except ValueError as exc:
-            return error(str(exc))
+            return error(f"--dask = {args.dask!r}: {exc}")
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -106,8 +106,8 @@ def command(args: argparse.Namespace) -> int:
 
         try:
             executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
-        except ImportError as exc:
-            return error(f"--dask = {args.dask!r}: {exc}")
+        except (ImportError, ValueError, OSError) as exc:  # OSError: no scheduler answers (a timeout)
+            return error(f"--dask = {args.dask!r}: cannot use it ({first_line(exc)})")
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
@@ -160,6 +160,7 @@ def _trace(args, spec, output, data, executor, total) -> int:
         finally:
             if bar is not None:
                 bar.close()
+    written(output.path)  # a Ctrl-C from here on (the summary, Dask's shutdown) says the file is complete
     print(f"wrote {output.path}")
     print(format_sweep_summary(open_sweep(output.path)))
     return EXIT_OK

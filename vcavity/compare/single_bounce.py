@@ -168,8 +168,15 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
     Raises
     ------
     ModelNotApplicable
-        Model not applicable to the table's material, or a needed order missing.
+        Model not applicable to the table's material, a needed order missing, or a table
+        of the ``paper`` estimator (weighted, no path counts to test).
     """
+    if table.estimator == "paper":
+        # Its counts are sums of path weights (IL eq. 23), not path counts: the chi-square
+        # and the albedo z-test below are multinomial and would read them as counts.
+        raise ModelNotApplicable(f"table {table.path} was made by the paper estimator: its f1 is a weighted "
+                                 "estimate, not path counts, and compare's tests need path counts; run with "
+                                 "--estimator analog to validate the walk")
     material = material_of_table(table)
     exact = EXACT_F1_MODEL[material.microsurface]
     model = exact if model is None else model

@@ -108,6 +108,30 @@ def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planne
     write_hdf5(Path(path), build)
 
 
+def refuse_non_file(path) -> None:
+    """Refuse a checkpoint path holding something that is not a regular file.
+
+    A folder (or FIFO, device) at ``OUT.h5.checkpoint`` is no checkpoint to resume, and the
+    run could not save its progress there either; said before anything is compiled.
+
+    Raises
+    ------
+    CheckpointError
+    """
+    import stat
+
+    try:
+        mode = Path(path).lstat().st_mode
+    except (FileNotFoundError, NotADirectoryError):
+        return
+    if stat.S_ISREG(mode):
+        return
+    kind = ("a folder" if stat.S_ISDIR(mode) else "a symbolic link" if stat.S_ISLNK(mode)
+            else "a FIFO" if stat.S_ISFIFO(mode) else "not a regular file")
+    raise CheckpointError(f"checkpoint {str(path)!r} is {kind}, not a checkpoint: the run saves its progress "
+                          "there; move it away or write the table elsewhere")
+
+
 def load(path, config_dict: dict) -> RunState:
     """Read and verify a checkpoint of the run ``config_dict``.
 
@@ -120,6 +144,7 @@ def load(path, config_dict: dict) -> RunState:
     import h5py
 
     path = Path(path)
+    refuse_non_file(path)
     if not path.is_file():
         raise CheckpointError(f"--resume: no checkpoint {str(path)!r} to resume from")
     try:

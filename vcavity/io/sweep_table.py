@@ -31,8 +31,9 @@ import h5py
 import numpy as np
 
 from vcavity._version import __version__ as _VCAVITY_VERSION
-from vcavity.io import schema
+from vcavity.io import checks, schema
 from vcavity.io.atomic import write_hdf5
+from vcavity.io.checks import TableFormatError
 
 FORMAT_NAME = "vcavity-sweep"
 FORMAT_VERSION = 1
@@ -68,8 +69,8 @@ ROOT_DESCRIPTION = ("Monte-Carlo BRDF tables of microfacet V-cavity surfaces ove
                     "table. Layout: docs/sweeps.md of vcavity.")
 
 
-class SweepFormatError(ValueError):
-    """A file is not a readable vcavity sweep (one line)."""
+#: A file is not a readable vcavity sweep (one line): the readers share one error.
+SweepFormatError = TableFormatError
 
 
 @dataclass(frozen=True)
@@ -270,7 +271,9 @@ def open_sweep(path) -> SweepData:
     FileNotFoundError
         No file at ``path``.
     SweepFormatError
-        Not a readable sweep file of a supported version (one line).
+        Not a readable sweep file of a supported version, or holding values no sweep
+        writes (:func:`vcavity.io.checks.check_sweep`); one line naming the dataset. The
+        same class as :class:`vcavity.io.checks.TableFormatError`.
     """
     location = Path(path)
     if not location.exists():
@@ -325,7 +328,13 @@ def _read(h5, location: Path) -> SweepData:
         if array.shape != expected:
             raise SweepFormatError(f"sweep {str(location)!r}: dataset {name} has shape {array.shape}, "
                                    f"expected {expected}")
+        if np.issubdtype(dtype, np.integer):  # a fractional count is refused, not truncated
+            checks.check_integer(name, array, f"sweep {str(location)!r}")
+        else:
+            checks.check_numeric(name, array, f"sweep {str(location)!r}")
         sweep.data[name] = array.astype(dtype, copy=False)
+    radians = {name: h5[name][()] for name in RADIANS.values() if name in h5}
+    checks.check_sweep(sweep, radians, f"sweep {str(location)!r}")
     return sweep
 
 

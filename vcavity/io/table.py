@@ -22,6 +22,8 @@ from typing import Any
 import h5py
 import numpy as np
 
+from vcavity.io import checks
+from vcavity.io.checks import TableFormatError
 from vcavity.io.schema import (
     DATASETS,
     FORMAT_NAME,
@@ -34,10 +36,6 @@ from vcavity.io.schema import (
 )
 from vcavity.io.writer import write_table
 from vcavity.sensor.grid import EqualAreaSensor
-
-
-class TableFormatError(ValueError):
-    """A file is not a readable vcavity table (wrong kind, version or content)."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,7 +204,11 @@ def open_table(path) -> Table:
         If ``path`` does not exist.
     TableFormatError
         One-line message if the file is not HDF5, not a vcavity table, of another format
-        version, lacks a dataset or attribute, or has inconsistent shapes.
+        version, lacks a dataset or attribute, has inconsistent shapes, or holds values
+        no run writes (:func:`_check_values`: NaN or negative BRDF values, an albedo that
+        is not the sum of ``brdf`` x projected solid angle, sensor datasets that are not
+        the sensor's, repeated or unsorted orders, degrees that are not the radians,
+        fractional counts, an unknown estimator, flags out of range).
     """
     location = Path(os.fspath(path))
     if not location.exists():
@@ -251,13 +253,17 @@ def _read(h5: h5py.File, location: Path) -> Table:
         if array.shape != expected:
             raise TableFormatError(f"dataset '{name}' has shape {array.shape}, expected "
                                    f"{expected} in {location}")
-    _check_values(data, location, deterministic=bool(_python_value(root.get("deterministic", 0))))
     seed = _int_attribute(root, "seed", location, 0, 2**64 - 1)
     try:
         config = json.loads(_python_value(root["config"]))
     except (TypeError, ValueError) as exc:
         raise TableFormatError(f"attribute 'config' is not valid JSON in {location}") from exc
     sensor = _rebuild_sensor(root, data["cell_center"], location)
+    checks.check_sensor_datasets(data, sensor, location)
+    _check_values(data, location, deterministic=bool(_python_value(root.get("deterministic", 0))))
+    if version >= 3:
+        checks.check_estimator(_python_value(root.get("estimator", "analog")), data["order"],
+                               data["order_source"], location)
     if version == 1:  # v1 had no degrees and no outgoing angles: derive them
         data.update(theta_i_deg=np.degrees(data["theta_i"]), phi_i_deg=np.degrees(data["phi_i"]),
                     theta_o=np.array(sensor.cell_theta), phi_o=np.array(sensor.cell_phi))
@@ -307,27 +313,42 @@ def _int_attribute(root, name: str, location: Path, lo: int, hi: int | None = No
 
 
 def _check_values(data: dict, location: Path, deterministic: bool = False) -> None:
-    """Refuse values no run writes (writer.py checks the same before writing); a
-    deterministic table (the model's, estimator ``exact``) has 0 paths."""
-    def fail(name, index, value, accepted):
-        raise TableFormatError(f"dataset '{name}' = {value!r} at index {index} in {location}: {accepted}")
-
-    for name, ok, accepted in (
+    """Refuse values no run writes (writer.py checks the same before writing; module
+    :mod:`vcavity.io.checks`); a deterministic table (the model's, estimator ``exact``)
+    has 0 paths."""
+    for name in ("paths", "counts", "max_bounces_seen", "unbinned_paths"):
+        if name in data:
+            checks.check_integer(name, data[name], location)
+    for name, good, accepted in (
             ("paths", (lambda a: a == 0) if deterministic else (lambda a: a >= 1),
              "must be 0 (a deterministic table traced none)" if deterministic
              else "must be >= 1 (every direction traced paths)"),
             ("counts", lambda a: a >= 0, "must be >= 0"),
+            ("max_bounces_seen", lambda a: a >= 0, "must be >= 0"),
+            ("unbinned_paths", lambda a: a >= 0, "must be >= 0"),
             ("theta_i", lambda a: (a >= 0.0) & (a <= 0.5 * np.pi), "must be in [0, pi/2] rad"),
-            ("phi_i", np.isfinite, "must be finite"),
-            ("order", lambda a: a >= 0, "must be >= 0 (0: all orders, then 1..K)")):
-        array = data[name]
-        if not np.issubdtype(array.dtype, np.number):
-            raise TableFormatError(f"dataset '{name}' has dtype {array.dtype} in {location}: must be numeric")
-        bad = np.flatnonzero(~ok(array).ravel())
-        if bad.size:
-            index = np.unravel_index(bad[0], array.shape)
-            fail(name, tuple(int(i) for i in index) if array.ndim > 1 else int(index[0]),
-                 array[index].item(), accepted)
+            ("phi_i", np.isfinite, "must be finite")):
+        if name in data:
+            checks.check_numeric(name, data[name], location)
+            with np.errstate(invalid="ignore"):
+                checks.check_where(name, data[name], good(data[name]), location, accepted)
+    checks.check_orders(data["order"], location)
+    for name in ("brdf", "brdf_stderr", "albedo", "cell_solid_angle", "cell_projected_solid_angle"):
+        checks.check_non_negative(name, data[name], location)
+    for name in ("absorbed", "truncated", "degenerate"):  # fractions of paths (or of energy)
+        checks.check_non_negative(name, data[name], location, upper=1.0)
+    for name in ("theta_i_deg", "phi_i_deg"):  # v2 and later: the degrees the config gave
+        if name in data:
+            checks.check_degrees(name, data[name], data[name.removesuffix("_deg")], location,
+                                 name.removesuffix("_deg"))
+    for name in ("order_source", "folded", "target_reached"):
+        if name in data:
+            checks.check_flags(name, data[name], location)
+    if "relative_error" in data:  # NaN without f_inf, inf while nothing exited
+        with np.errstate(invalid="ignore"):
+            checks.check_where("relative_error", data["relative_error"],
+                               ~(data["relative_error"] < 0), location, "must be >= 0 or NaN")
+    checks.check_albedo(data["brdf"], data["albedo"], data["cell_projected_solid_angle"], location)
 
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Table", "TableFormatError", "open_table",

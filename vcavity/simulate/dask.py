@@ -38,21 +38,39 @@ def _execute_remote(config_json: str, threads: int, unit):
     return simulation.execute(unit)
 
 
+def _cores() -> int:
+    """Cores this process may run on (its CPU affinity where the system has one)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):  # pragma: no cover - not Linux
+        return os.cpu_count() or 1
+
+
 def parse_address(text: str) -> tuple[str, int | None]:
-    """``local:N`` -> ("local", N); anything else is a scheduler address -> (text, None).
+    """``local:N`` -> ("local", N); a scheduler address -> (text, None).
+
+    A scheduler address is ``PROTOCOL://HOST:PORT`` or ``HOST:PORT`` (as Dask's ``Client``
+    takes it); whether a scheduler answers there is known only when connecting.
 
     Raises
     ------
     ValueError
-        One line for ``local:`` without a positive integer or an empty address.
+        One line, without the ``--dask = ...`` prefix the caller adds: an empty address,
+        one that is no address, or ``local:N`` without N in 1 .. the cores here (each of the
+        N workers is a process: more than the cores only compete for them).
     """
     if not text:
-        raise ValueError("--dask = '': give a scheduler address (tcp://host:8786) or local:N")
+        raise ValueError("give a scheduler address (tcp://host:8786) or local:N")
     if text.startswith("local:"):
-        count = text[len("local:"):]
-        if not count.isdigit() or int(count) < 1:
-            raise ValueError(f"--dask = {text!r}: local:N needs N, the number of worker processes, >= 1")
+        count, cores = text[len("local:"):], _cores()
+        if not count.isdigit() or not 1 <= int(count) <= cores:
+            raise ValueError(f"local:N starts N worker processes: N must be an integer from 1 to {cores} "
+                             f"(the cores here)")
         return "local", int(count)
+    host = text.split("://", 1)[1] if "://" in text else text
+    if not host or ":" not in host or not host.rsplit(":", 1)[1].isdigit() or any(c.isspace() for c in text):
+        raise ValueError("not a scheduler address: give PROTOCOL://HOST:PORT (tcp://host:8786), HOST:PORT "
+                         "or local:N")
     return text, None
 
 

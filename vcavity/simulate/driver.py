@@ -31,6 +31,7 @@ def load_state(simulation, output: Path, resume: bool):
         unfinished run without ``resume``.
     """
     path = checkpoint.checkpoint_path(output)
+    checkpoint.refuse_non_file(path)  # a folder there is neither resumed nor replaced
     if not resume:
         if path.exists():
             raise checkpoint.CheckpointError(

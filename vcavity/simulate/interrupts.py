@@ -16,6 +16,7 @@ import sys
 
 
 _pending = False  # SIGINT seen by the main handler (possibly swallowed by a ctypes callback)
+_terminated = False  # the interrupt was a SIGTERM: the command exits with 143, not 130
 
 
 def _main_handler(signum, frame):
@@ -33,13 +34,30 @@ def _unraisable(unraisable, _default=sys.unraisablehook):
     _default(unraisable)
 
 
+def _term_handler(signum, frame):
+    """SIGTERM is handled as Ctrl-C is at that moment (the current SIGINT handler: the main
+    one raises, a :class:`DeferredInterrupt` sets its flag: checkpoint, one line, no
+    temporary file) and remembered, so that the command exits with 143 (128 + SIGTERM)."""
+    global _terminated, _pending
+    _terminated = True
+    handler = signal.getsignal(signal.SIGINT)
+    if callable(handler):
+        handler(signal.SIGINT, frame)
+        return
+    _pending = True  # SIGINT ignored (a background job) or default: a termination still ends the command
+    raise KeyboardInterrupt
+
+
 def install_main_handler() -> None:
     """SIGINT raises KeyboardInterrupt as usual and is remembered, even where compiled
-    code swallows the exception (see :func:`raise_if_pending`); main thread only."""
+    code swallows the exception (see :func:`raise_if_pending`); SIGTERM, where it has its
+    default action, is handled as SIGINT (:func:`_term_handler`); main thread only."""
     try:
         if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
             signal.signal(signal.SIGINT, _main_handler)
             sys.unraisablehook = _unraisable
+        if signal.getsignal(signal.SIGTERM) is signal.SIG_DFL:
+            signal.signal(signal.SIGTERM, _term_handler)
     except ValueError:
         pass
 
@@ -52,6 +70,8 @@ def uninstall_main_handler() -> None:
     try:
         if signal.getsignal(signal.SIGINT) is _main_handler:
             signal.signal(signal.SIGINT, signal.default_int_handler)
+        if signal.getsignal(signal.SIGTERM) is _term_handler:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL)
     except ValueError:
         pass
 
@@ -67,10 +87,15 @@ def pending() -> bool:
     return _pending
 
 
+def terminated() -> bool:
+    """Whether the interrupt was a SIGTERM (handled as SIGINT; exit status 143)."""
+    return _terminated
+
+
 def reset() -> None:
-    """Forget a remembered SIGINT (for in-process callers such as tests)."""
-    global _pending
-    _pending = False
+    """Forget a remembered SIGINT or SIGTERM (for in-process callers such as tests)."""
+    global _pending, _terminated
+    _pending = _terminated = False
 
 
 class DeferredInterrupt:

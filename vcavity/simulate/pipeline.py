@@ -18,8 +18,8 @@ import numpy as np
 
 from vcavity.io.checkpoint import RunState
 from vcavity.config import Material, RunConfig
-from vcavity.estimators import (ANALOG, EXACT, EXACT_F1, PAPER, estimate_direction, estimate_weighted, mirror_cells,
-                                order_source, relative_error)
+from vcavity.estimators import (ANALOG, EXACT, EXACT_F1, PAPER, error_estimate_exists, estimate_direction,
+                                estimate_weighted, mirror_cells, order_source, relative_error)
 from vcavity.simulate.exact import ExactModels
 from vcavity.simulate.f1_models import F1Models
 from vcavity.facet import registry as facets
@@ -359,7 +359,12 @@ class Simulation:
             state.finished[j] = True
         if c.target_error is not None:
             paths = min(done * BLOCK_SIZE, budget)
-            if self._direction_error(j, state.tally[j], paths) <= c.target_error:
+            # a few landed paths give a binomial error of 0, not a small one: not reached
+            landed = int(state.tally[j, 0].sum())
+            if c.estimator == EXACT_F1:  # its first-order exits landed too (counted, not binned)
+                landed += int(state.stats[j, STAT_UNBINNED])
+            if error_estimate_exists(landed, c.target_error) and \
+                    self._direction_error(j, state.tally[j], paths) <= c.target_error:
                 state.finished[j] = state.reached[j] = True
 
     def _current_error(self, j: int, state: RunState) -> float:

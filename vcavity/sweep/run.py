@@ -47,8 +47,10 @@ def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
     data.data["done"][point.index] = 1
 
 
-def resume_data(sweep: Sweep, path, shown: str) -> SweepData:
-    """The state of ``sweep`` stored at ``path`` (for ``--resume``).
+def resume_data(sweep: Sweep, path, shown: str, field: str = "--output") -> SweepData:
+    """The state of ``sweep`` stored at ``path`` (for ``--resume``); ``field = 'shown'``
+    names the output in messages as the user gave it (``--output``, ``output.path``, or
+    the default).
 
     Raises
     ------
@@ -59,15 +61,15 @@ def resume_data(sweep: Sweep, path, shown: str) -> SweepData:
     try:
         stored = open_sweep(path)
     except SweepFormatError as exc:
-        raise SweepError(f"--resume: --output = {shown!r} cannot be resumed: {exc}") from None
+        raise SweepError(f"--resume: {field} = {shown!r} cannot be resumed: {exc}") from None
     stored_overrides = stored.attrs.get("overrides") or overrides_text({})  # files before overrides: none
     if stored_overrides != overrides_text(sweep.overrides):
-        raise SweepError(f"--resume: --output = {shown!r} was swept with the overrides "
+        raise SweepError(f"--resume: {field} = {shown!r} was swept with the overrides "
                          f"{_overrides_shown(json.loads(stored_overrides))}, this command gives "
                          f"{_overrides_shown(sweep.overrides)}; give the same flags to continue it, another "
                          "--output, or --overwrite to start again")
     if stored.attrs.get("spec_digest") != sweep.digest:
-        raise SweepError(f"--resume: --output = {shown!r} holds another sweep (its axes, base config or seed "
+        raise SweepError(f"--resume: {field} = {shown!r} holds another sweep (its axes, base config or seed "
                          "differ from this sweep file); give another --output, or --overwrite to start again")
     data = sweep.new_data()
     for name, array in data.data.items():
@@ -128,7 +130,7 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
             f"{available / 1024**3:,.2f} GB available; accepted: a sweep that fits (fewer points, lower "
             "sensor_resolution or max_order)")
     note = None
-    data = resume_data(sweep, out.path, out.shown) if resume and exists else sweep.new_data()
+    data = resume_data(sweep, out.path, out.shown, out.field) if resume and exists else sweep.new_data()
     if resume and not exists:
         note = f"{out.shown}: nothing to resume yet, starting the sweep"
     removed = preflight.probe_output(out)

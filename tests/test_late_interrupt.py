@@ -1,0 +1,59 @@
+"""Ctrl-C after a command's output is complete gives the same one line everywhere:
+``vcavity: interrupted; the output was written: PATH``, exit 130 (as ``run`` says
+"interrupted; the table was written"), in the command (just after ``export`` or ``plot``
+wrote its file) and once ``main`` has returned (the interpreter or a Dask cluster
+shutting down). Deterministic: the interrupt is raised at a fixed point."""
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+from tests.export.synthetic_table import synthetic
+from vcavity.cli import main
+
+
+@pytest.fixture
+def table(tmp_path):
+    return synthetic(tmp_path / "t.h5", theta_deg=(0, 30, 60), resolution=7).path
+
+
+@pytest.mark.parametrize("command", ["export", "plot"])
+def test_ctrl_c_just_after_the_file_is_written_says_so(table, tmp_path, capsys, monkeypatch, command):
+    """The Ctrl-C arrives the moment the command has recorded its file as complete."""
+    import vcavity.cli.export as export_cli
+    import vcavity.cli.plot as plot_cli
+
+    module = export_cli if command == "export" else plot_cli
+    record = module.written
+
+    def written_then_interrupted(path):
+        record(path)
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(module, "written", written_then_interrupted)
+    out = tmp_path / ("t.csv" if command == "export" else "t.png")
+    argv = (["export", str(table), str(out), "--format", "csv", "--theta-i", "30"] if command == "export"
+            else ["plot", str(table), "-o", str(out)])
+    assert main(argv) == 130
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == [f"vcavity: interrupted; the output was written: {out}"]
+    assert out.is_file()
+
+
+def test_ctrl_c_after_main_returned_is_one_line_exit_130(table, tmp_path):
+    """A SIGINT while the process shuts down (here: an atexit hook, as Dask's cluster
+    shutdown is) after export finished: one line naming the file, exit 130, no traceback."""
+    out = tmp_path / "t.csv"
+    script = textwrap.dedent(f"""
+        import atexit, os, signal, sys, time
+        atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(5)))
+        sys.argv = ["vcavity", "export", {str(table)!r}, {str(out)!r}, "--format", "csv", "--theta-i", "30"]
+        from vcavity.cli import console_main
+        console_main()
+    """)
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 130, done.stderr
+    assert done.stderr.splitlines() == [f"vcavity: interrupted; the output was written: {out}"]
+    assert out.is_file() and done.stdout.startswith(f"wrote {out}")
