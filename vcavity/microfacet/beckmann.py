@@ -24,6 +24,7 @@ from vcavity.microfacet.common import (
     normal_sampler,
     ratio_squared,
     stretched_slope,
+    visible_normal,
 )
 from vcavity.parameters import Roughness
 from vcavity._numba.jit import njit
@@ -260,19 +261,10 @@ def sample_visible(vx, vy, vz, u1, u2, params):
     sin_v = math.sqrt(sx * sx + sy * sy)
     if sin_v == 0.0:  # seen from the normal: every normal is visible in proportion to D(m)(m.n)
         r = math.sqrt(-math.log1p(-min(u1, _ONE_MINUS_ULP)))
-        slope_x = r * math.cos(_TWO_PI * u2)
-        slope_y = r * math.sin(_TWO_PI * u2)
-    else:
-        mu = vz / sin_v  # cot of the stretched view
-        guess = (visible.guess(u1, mu, params[2:]) if params.shape[0] == _VISIBLE_PARAMS
-                 else math.inf)  # a bare [alpha_x, alpha_y]: the solver starts from its bracket
-        x = visible.solve_slope(u1, mu, guess)
-        y = visible.normal_quantile(u2)
-        cos_v = sx / sin_v
-        sin_vphi = sy / sin_v
-        slope_x = cos_v * x - sin_vphi * y
-        slope_y = sin_vphi * x + cos_v * y
-    mx = -ax * slope_x
-    my = -ay * slope_y
-    norm = math.sqrt(mx * mx + my * my + 1.0)
-    return mx / norm, my / norm, 1.0 / norm
+        return visible_normal(1.0, 0.0, r * math.cos(_TWO_PI * u2), r * math.sin(_TWO_PI * u2), ax, ay)
+    mu = vz / sin_v  # cot of the stretched view
+    guess = (visible.guess(u1, mu, params[2:]) if params.shape[0] == _VISIBLE_PARAMS
+             else math.inf)  # a bare [alpha_x, alpha_y]: the solver starts from its bracket
+    x = visible.solve_slope(u1, mu, guess)
+    y = visible.normal_quantile(u2)
+    return visible_normal(sx / sin_v, sy / sin_v, x, y, ax, ay)

@@ -220,6 +220,22 @@ _SAMPLE_NORMAL_DOC = """Unit normal sampled with pdf ``D(m)(m.n)``: the module's
     """
 
 
+@njit(cache=True)
+def visible_normal(cos_v, sin_v, x, y, alpha_x, alpha_y):
+    """The unit normal of the unit-roughness slopes ``x`` (along the stretched view's azimuth
+    ``(cos_v, sin_v)``) and ``y`` (across it), stretched back to ``(alpha_x, alpha_y)``: the
+    last step of every visible-normal sampler (physics.md sec. 14). Normalised after scaling
+    by the largest component, so heavy-tailed slopes cannot overflow (for slopes whose
+    components stay below 1 the result is the plain ``normalize(mx, my, 1)`` bit for bit).
+    """
+    mx = -alpha_x * (cos_v * x - sin_v * y)
+    my = -alpha_y * (sin_v * x + cos_v * y)
+    big = max(abs(mx), abs(my), 1.0)
+    mx, my, mz = mx / big, my / big, 1.0 / big
+    norm = math.sqrt(mx * mx + my * my + mz * mz)
+    return mx / norm, my / norm, mz / norm
+
+
 def normal_sampler(sample):
     """The distribution's ``sample_normal``: ``normal_from_slope_angle(*sample(u1, u2, params))``.
 

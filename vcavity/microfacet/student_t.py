@@ -44,7 +44,7 @@ import math
 import numpy as np
 
 from vcavity.microfacet import student_t_tails as tails
-from vcavity.microfacet.common import MAX_TAN_THETA, normal_sampler, stretched_slope
+from vcavity.microfacet.common import MAX_TAN_THETA, normal_sampler, stretched_slope, visible_normal
 from vcavity.parameters import Number, Roughness
 from vcavity._numba.jit import njit
 
@@ -293,24 +293,12 @@ def sample_visible(vx, vy, vz, u1, u2, params):
         if u1 >= 1.0:
             u1 = _ONE_MINUS_ULP
         r = math.sqrt(z * math.expm1(-math.log1p(-u1) * inv_z))
-        slope_x = r * math.cos(_TWO_PI * u2)
-        slope_y = r * math.sin(_TWO_PI * u2)
-    else:
-        mu = vz / sin_v  # cot of the stretched view
-        x = tails.visible_slope(u1, mu, z, inv_z, log_z, k, c)
-        zc = params[8]
-        a = tails.lower_quantile(min(u2, 1.0 - u2), zc, params[9], params[10], params[11], params[12])
-        y = math.hypot(math.sqrt(z), x) * (a / math.sqrt(zc))
-        if u2 < 0.5:
-            y = -y
-        cos_v = sx / sin_v
-        sin_vphi = sy / sin_v
-        slope_x = cos_v * x - sin_vphi * y
-        slope_y = sin_vphi * x + cos_v * y
-    mx = -ax * slope_x
-    my = -ay * slope_y
-    # normalised without overflow for heavy-tailed slopes
-    big = max(abs(mx), abs(my), 1.0)
-    mx, my, mz = mx / big, my / big, 1.0 / big
-    norm = math.sqrt(mx * mx + my * my + mz * mz)
-    return mx / norm, my / norm, mz / norm
+        return visible_normal(1.0, 0.0, r * math.cos(_TWO_PI * u2), r * math.sin(_TWO_PI * u2), ax, ay)
+    mu = vz / sin_v  # cot of the stretched view
+    x = tails.visible_slope(u1, mu, z, inv_z, log_z, k, c)
+    zc = params[8]
+    a = tails.lower_quantile(min(u2, 1.0 - u2), zc, params[9], params[10], params[11], params[12])
+    y = math.hypot(math.sqrt(z), x) * (a / math.sqrt(zc))
+    if u2 < 0.5:
+        y = -y
+    return visible_normal(sx / sin_v, sy / sin_v, x, y, ax, ay)
