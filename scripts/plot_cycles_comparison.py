@@ -63,7 +63,7 @@ def report(smith: dict, vcavity: dict, E: np.ndarray, E_avg: np.ndarray) -> list
         lines.append(f"{name} E (f_inf): max |E - 1| {np.max(np.abs(lut['E'] - 1)):.3g}, "
                      f"E_avg in [{lut['E_avg'].min():.6f}, {lut['E_avg'].max():.6f}]")
     lines.append("E_avg by r (x: Cycles, Smith, V-cavity E_avg_f1): " + "; ".join(
-        f"{x}: {E_avg[x]:.6f} {smith['E_avg_f1'][x]:.6f} {vcavity['E_avg_f1'][x]:.6f}" for x in range(0, 32, 5)))
+        f"{x}: {E_avg[x]:.6f} {smith['E_avg_f1'][x]:.6f} {vcavity['E_avg_f1'][x]:.6f}" for x in (*range(0, 32, 5), 31)))
     return lines
 
 
