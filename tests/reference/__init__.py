@@ -29,4 +29,10 @@ merl_reader
     scales, half/difference angles), for the MERL export's round trip.
 tensor_file_reader
     A reader of the RGL ``tensor_file`` container, for the RGL export's tests.
+cycles_tables
+    Blender Cycles' ``table_ggx_E`` and ``table_ggx_Eavg`` quoted as shipped
+    (``data/cycles_ggx_E.tables``) and their parser, for the Cycles-layout comparison.
+smith_albedo
+    The single-scattering albedo of GGX mirror facets with the height-correlated Smith G2
+    by deterministic quadrature: what Cycles' table estimates, for judging differences.
 """
