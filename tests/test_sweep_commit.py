@@ -14,12 +14,14 @@ import os
 import signal
 import subprocess
 import sys
+from pathlib import Path
 
 import h5py
 import numpy as np
 import pytest
 import xarray as xr
 
+from tests.export.synthetic_sweeps import synthetic_sweep
 from tests.io.checksum_reference import checksums
 from tests.test_sweep import BASE, _same_file, _write
 from vcavity.cli import main
@@ -172,3 +174,39 @@ def test_reading_while_a_point_is_written(full, tmp_path, monkeypatch):
         np.testing.assert_array_equal(albedo, first)
     assert seen[-1][0] == [[1, 1], [0, 0]] and not seen[-1][1]
     _same_file(reference, out)
+
+
+def test_a_file_written_before_in_place_commits_is_read_and_resumed(full, tmp_path):
+    """tests/io/data/sweep_before_commits.h5: this sweep's first point, written by vcavity at
+    e091c4d (gzip-chunked, no checksum; make_sweep_before_commits.py). Its done flags are
+    trusted; --resume writes it whole once in the new layout, then goes on in place."""
+    folder, spec, reference = full
+    out = tmp_path / "old.h5"
+    out.write_bytes((Path(__file__).parent / "io" / "data" / "sweep_before_commits.h5").read_bytes())
+    with h5py.File(out, "r") as h5:
+        assert "checksum" not in h5 and h5["brdf"].compression == "gzip"
+    read = open_sweep(out)
+    assert read.data["done"].tolist() == [[1, 0], [0, 0]] and read.rejected == ()
+    with h5py.File(reference, "r") as h5:
+        np.testing.assert_array_equal(read.data["counts"][:, 0, 0], h5["counts"][:, 0, 0])
+    with xr.open_dataset(out, engine="h5netcdf") as ds:
+        assert ds.done.values.tolist() == [[1, 0], [0, 0]]
+    assert main(["sweep", str(spec), "-o", str(out), "-q", "--resume"]) == 0
+    _same_file(reference, out)
+    with h5py.File(out, "r") as h5:
+        assert h5["brdf"].compression is None and h5["brdf"].chunks is None
+
+
+def test_resume_never_writes_a_file_that_changed_after_it_was_read(full, tmp_path):
+    folder, spec, reference = full
+    out = tmp_path / "swapped.h5"
+    out.write_bytes((Path(__file__).parent / "io" / "data" / "sweep_before_commits.h5").read_bytes())
+    sweep = sweep_mod.load(spec)
+    _, data, _ = sweep_run.plan_output(sweep, str(out), str(spec), resume=True)
+    other = synthetic_sweep(tmp_path / "other.h5", [("alpha", [0.2, 0.5]), ("theta_i_deg", [0.0, 40.0])],
+                            lambda coords, k: 0.5 / (k + 1), pending=[{"alpha": 0.5}])
+    os.replace(other, out)  # another sweep now sits where --resume read its file
+    before = out.read_bytes()
+    with pytest.raises(OSError, match=r"changed since it was read \(its attribute spec_digest is 'synthetic'"):
+        sweep_run.run(sweep, out, data)
+    assert out.read_bytes() == before
