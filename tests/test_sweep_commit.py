@@ -137,7 +137,8 @@ def test_a_point_whose_bytes_changed_is_read_as_not_done_and_run_again(full, tmp
     assert np.isnan(read.data["brdf"][:, 1, 0]).all()
     capsys.readouterr()
     assert main(["info", str(out)]) == 0
-    assert "points: 3 of 4 done" in capsys.readouterr().out
+    info = capsys.readouterr().out
+    assert "points: 3 of 4 done" in info and "1 point(s) marked done fail their checksum" in info
     traced = []
     sweep = sweep_mod.load(spec)
     _, data, note = sweep_run.plan_output(sweep, str(out), str(spec), resume=True)

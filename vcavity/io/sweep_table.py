@@ -365,17 +365,16 @@ def _read(h5, location: Path) -> SweepData:
         else:
             checks.check_numeric(name, array, f"sweep {str(location)!r}")
         sweep.data[name] = array.astype(dtype, copy=False)
-    _verify(sweep, f"sweep {str(location)!r}")
+    _verify(sweep)
     radians = {name: h5[name][()] for name in RADIANS.values() if name in h5}
     checks.check_sweep(sweep, radians, f"sweep {str(location)!r}")
     return sweep
 
 
-def _verify(sweep: SweepData, location: str) -> None:
+def _verify(sweep: SweepData) -> None:
     """Read a point as done only where its checksum matches; give every point not done
     the values of a pending point (a write cut short may have left some of its bytes)."""
-    done = sweep.data["done"]
-    checks.check_flags("done", done, location)
+    done = sweep.data["done"]  # flags out of range stay as read: check_sweep refuses them
     if "checksum" not in sweep.data:  # written before checksums: done flags as stored
         sweep.data["checksum"] = np.zeros(done.shape, np.uint64)
         sweep.seal()
@@ -385,8 +384,9 @@ def _verify(sweep: SweepData, location: str) -> None:
     sweep.rejected = tuple(tuple(int(i) for i in index) for index in np.ndindex(done.shape)
                            if done[index] == 1 and not good[index])
     for index in np.ndindex(done.shape):
-        if not good[index]:
+        if done[index] == 1 and not good[index]:
             done[index] = 0
+        if done[index] == 0:
             sweep.reset(index)
 
 
