@@ -2,11 +2,12 @@
 """Time to read a sweep file, and the share of it the read-time checks take.
 
 ``open_sweep`` checks what it reads (vcavity/io/checks.py: finite, non-negative values,
-albedo against brdf x projected solid angle, flags, orders, angles, sensor geometry).
+albedo against brdf x projected solid angle, flags, orders, angles, sensor geometry) and
+verifies each done point's checksum (vcavity/io/sweep_checksum.py).
 This writes a synthetic sweep of ``--points`` points (one alpha axis) x ``--directions``
 incident directions, every point done, with random but consistent values on an
-N x N sensor, then times (median of ``--repeat``) the whole ``open_sweep`` and the checks
-alone (``check_sweep`` on the data already in memory). Plain NumPy, nothing compiled.
+N x N sensor, then times (median of ``--repeat``) the whole ``open_sweep``, the checks
+alone (``check_sweep`` on the data already in memory) and the checksums alone. Plain NumPy, nothing compiled.
 
     python scripts/bench_read.py                       # 1000 points x 11 directions, N = 15, orders 0..3
     python scripts/bench_read.py --resolution 57 --points 100
@@ -23,7 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vcavity.io import checks
+from vcavity.io import checks, sweep_checksum
 from vcavity.io.sweep_table import RADIANS, GridAxis, SweepData, open_sweep, write_sweep
 from vcavity.sensor.grid import EqualAreaSensor
 
@@ -85,12 +86,17 @@ def main() -> None:
             radians = {name: h5[name][()] for name in RADIANS.values() if name in h5}
         whole = _median_seconds(lambda: open_sweep(path), args.repeat)
         checked = _median_seconds(lambda: checks.check_sweep(sweep, radians, str(path)), args.repeat)
+        dims = {name: sweep.dims(name) for name in sweep.data}
+        summed = _median_seconds(lambda: sweep_checksum.verified(sweep.data, dims, sweep.point_axes,
+                                                                 sweep.data["done"], sweep.data["checksum"]),
+                                 args.repeat)
     n_values = sweep.data["brdf"].size
     print(f"sweep file: {args.points} points x {args.directions} directions, {args.max_order + 1} orders, "
           f"{args.resolution}x{args.resolution} cells: {n_values:,} brdf values, {size / 1e6:.1f} MB "
           f"(load {os.getloadavg()[0]:.2f})")
     print(f"open_sweep: {whole:.3f} s (median of {args.repeat}); checks alone: {checked:.3f} s "
-          f"({100 * checked / whole:.0f} % of the read)")
+          f"({100 * checked / whole:.0f} % of the read); per-point checksums alone: {summed:.3f} s "
+          f"({100 * summed / whole:.0f} %)")
 
 
 if __name__ == "__main__":

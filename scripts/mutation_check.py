@@ -279,6 +279,21 @@ MUTANTS = (
            "    pass",
            "open_sweep accepts done flags other than 0 and 1 (a resume then runs nothing)",
            ("tests/io/test_table_checks.py",)),
+    Mutant("sweep-commit-flag-before-values", "vcavity/io/sweep_points.py",
+           'SEAL = ("checksum", "done")',
+           "SEAL = ()",
+           "a sweep point's done flag is written among its values, before the last of them and its checksum",
+           ("tests/test_sweep_commit.py",)),
+    Mutant("sweep-checksum-unverified", "vcavity/io/sweep_table.py",
+           '    good = sweep_checksum.verified(sweep.data, dims, sweep.point_axes, done, sweep.data["checksum"])',
+           "    good = done == 1",
+           "open_sweep trusts done = 1 without the point's checksum (a damaged point is never rerun)",
+           ("tests/test_sweep_commit.py",)),
+    Mutant("sweep-torn-values-kept", "vcavity/io/sweep_table.py",
+           "        if done[index] == 0:\n            sweep.reset(index)",
+           "        if False:\n            sweep.reset(index)",
+           "open_sweep keeps the bytes a cut-short commit left in a pending point instead of NaN / 0",
+           ("tests/test_sweep_commit.py",)),
 )
 
 

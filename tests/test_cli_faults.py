@@ -28,7 +28,7 @@ import pytest
 
 from vcavity import open_table
 from vcavity.cli import main
-from vcavity.io import atomic, checkpoint, writer
+from vcavity.io import atomic, checkpoint, sweep_points, writer
 from vcavity.io.sweep_table import open_sweep
 
 BASE = {"material.distribution": '"beckmann"', "material.alpha": "0.5", "material.kd": "0.5",
@@ -312,7 +312,18 @@ def test_full_disk_writing_a_checkpoint_keeps_the_previous_one(box, capsys, monk
 def test_full_disk_in_a_sweep_is_one_line(box, capsys, monkeypatch):
     (box / "s.toml").write_text(toml({"incidence.theta_i_deg": None}, "[sweep]\nalpha = [0.3, 0.6]\n"
                                                                      "theta_i_deg = [0]\n"))
-    _disk_full_at(monkeypatch, "table", failing_call=2)  # the first point is written, the second not
+    # the first point writes the whole file; the disk fills in the in-place write of the
+    # second, in its third piece of values (half of it written)
+    real, calls = sweep_points.write_at, []
+
+    def write_at(fd, data, offset):
+        calls.append(offset)
+        if len(calls) == 3:
+            real(fd, data[: len(data) // 2], offset)
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+        real(fd, data, offset)
+
+    monkeypatch.setattr(sweep_points, "write_at", write_at)
     before = snapshot(box)
     status = _main(["sweep", "s.toml", "-o", "s.h5", "-q"])
     captured = capsys.readouterr()

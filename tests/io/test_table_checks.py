@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from tests.export.synthetic_sweeps import synthetic_sweep
+from tests.io.checksum_reference import reseal
 from vcavity.cli import main
 from vcavity.estimators import estimate_direction, estimate_weighted, mirror_cells, order_source
 from vcavity.io.checks import TableFormatError
@@ -84,11 +85,15 @@ TABLE_DEFECTS = [
 ]
 
 
-def _edited(source, tmp_path, edit, name="edited.h5"):
+def _edited(source, tmp_path, edit, name="edited.h5", sealed=False):
+    """A copy of ``source`` edited by ``edit``; ``sealed``: a sweep whose per-point checksums
+    are then recomputed (else the edited points are read as not done, see test_sweep_commit)."""
     target = tmp_path / name
     shutil.copyfile(source, target)
     with h5py.File(target, "a") as h5:
         edit(h5)
+    if sealed:
+        reseal(target)
     return target
 
 
@@ -196,7 +201,7 @@ SWEEP_DEFECTS = [
 def test_open_sweep_refuses_an_edited_sweep_naming_the_dataset(tmp_path, edit, dataset):
     path = _sweep(tmp_path)
     assert open_sweep(path).n_done() == 1  # the valid original opens; NaN of the pending point is fine
-    bad = _edited(path, tmp_path, edit)
+    bad = _edited(path, tmp_path, edit, sealed=True)
     with pytest.raises(SweepFormatError) as info:
         open_sweep(bad)
     message = str(info.value)

@@ -41,8 +41,9 @@ point (e.g. a quick trial: --paths 20000); the file records them (attribute over
 and --resume continues a sweep only with the same ones.
 
 output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
-readable with xarray.open_dataset(OUT, engine="h5netcdf"); written again after every
-point, so an interrupted sweep keeps its finished points: continue it with --resume.
+readable with xarray.open_dataset(OUT, engine="h5netcdf"); created when the first point
+finishes, then each point written in place (its values, a checksum, its done flag last),
+so an interrupted sweep keeps its finished points: continue it with --resume.
 docs/sweeps.md; examples: runs/sweep_roughness_eta.toml, runs/sweep_gold_rgb.toml
 """
 

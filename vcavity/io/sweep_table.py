@@ -16,8 +16,12 @@ custom code. A *point* is one material (a position on every axis but ``theta_i_d
 points not yet done are NaN (floats) or 0 (integers) with ``done = 0``.
 
 Like the other files of vcavity this module imports h5py and no Numba (``vcavity info``
-reads a sweep without compiling anything); files are always written whole and atomically
-(:func:`vcavity.io.atomic.write_hdf5`).
+reads a sweep without compiling anything). A file is created whole and atomically
+(:func:`write_sweep`, :func:`vcavity.io.atomic.write_hdf5`) with every dataset contiguous
+and allocated, so its HDF5 metadata never changes afterwards; each later point is
+committed in place into its own bytes (:mod:`vcavity.io.sweep_points`), sealed by a
+per-point ``checksum`` (:mod:`vcavity.io.sweep_checksum`). The reader trusts ``done = 1``
+only where the checksum matches (files written before checksums: every ``done``).
 """
 
 from __future__ import annotations
@@ -31,7 +35,7 @@ import h5py
 import numpy as np
 
 from vcavity._version import __version__ as _VCAVITY_VERSION
-from vcavity.io import checks, schema
+from vcavity.io import checks, schema, sweep_checksum
 from vcavity.io.atomic import write_hdf5
 from vcavity.io.checks import TableFormatError
 
@@ -59,7 +63,12 @@ VARIABLES.update({
              "(its values are then NaN or 0)"),
     "compute_time_s": ("point", np.float64, "s", "tracing time of the point",
                        "Seconds spent tracing this point (not part of the result)"),
+    "checksum": ("point", np.uint64, "1", "checksum of the point's values",
+                 "First 8 bytes (little-endian) of SHA-256 of the point's values (docs/sweeps.md, "
+                 "'Writing, interrupting, resuming'); done = 1 counts only where it matches, else 0"),
 })
+#: Variables files written before the per-point checksum lack (their done flags are trusted).
+OPTIONAL = ("checksum",)
 FLAGS = dict(schema.FLAGS, done=((0, 1), "pending done"))
 #: variables that record how long things took: they differ between identical sweeps
 TIMING = ("compute_time_s",)
@@ -124,6 +133,8 @@ class SweepData:
     scalars: dict = field(default_factory=dict)
     data: dict = field(default_factory=dict)
     path: Path | None = None
+    #: points the file marks done whose checksum does not match (read as not done)
+    rejected: tuple = ()
 
     @property
     def shape(self) -> tuple[int, ...]:
@@ -154,6 +165,23 @@ class SweepData:
     def n_done(self) -> int:
         """Points finished."""
         return int(np.sum(self.data["done"] == 1))
+
+    def checksum(self, index: tuple[int, ...]) -> np.uint64:
+        """The checksum of the values of point ``index`` (:mod:`vcavity.io.sweep_checksum`)."""
+        return sweep_checksum.point_checksum(self.data, {n: self.dims(n) for n in self.data}, self.point_axes,
+                                             tuple(index))
+
+    def seal(self) -> None:
+        """Set ``checksum`` of every done point from its values (0 for the others)."""
+        for index in np.ndindex(self.point_shape):
+            self.data["checksum"][index] = self.checksum(index) if self.data["done"][index] == 1 else 0
+
+    def reset(self, index: tuple[int, ...]) -> None:
+        """Give point ``index`` the values of a point not done (NaN, 0, -1; its seed is kept)."""
+        for name, (kind, dtype, *_rest) in VARIABLES.items():
+            if name != "seed":
+                fill = np.nan if dtype == np.float64 else (-1 if name == "target_reached" else 0)
+                self.data[name][sweep_checksum.point_slice(self.dims(name), self.point_axes, tuple(index))] = fill
 
 
 def _coordinates(sweep: SweepData, dims: tuple[str, ...]) -> str | None:
@@ -215,11 +243,9 @@ def _fill(h5, sweep: SweepData) -> None:
     for name, (kind, dtype, units, long_name, description) in VARIABLES.items():
         data = np.asarray(sweep.data[name], dtype=dtype)
         dims = sweep.dims(name)
-        options = {}
-        if kind == "cell" and data.size:  # one chunk = all orders and cells of one direction
-            options = dict(chunks=(1,) * (data.ndim - 2) + data.shape[-2:], compression="gzip",
-                           compression_opts=1, shuffle=True)
-        dataset = h5.create_dataset(name, data=data, track_order=True, **options)
+        # contiguous and written whole now: the bytes of every point have a fixed place in
+        # the file, so a point is later committed in place without touching HDF5 metadata
+        dataset = h5.create_dataset(name, data=data, track_order=True)
         _describe(dataset, units, long_name, description, _coordinates(sweep, dims))
         if name in FLAGS:
             dataset.attrs["flag_values"] = np.array(FLAGS[name][0], dtype=np.int8)
@@ -240,13 +266,17 @@ def _fill(h5, sweep: SweepData) -> None:
 
 
 def write_sweep(path, sweep: SweepData) -> None:
-    """Write ``sweep`` to ``path`` atomically (temporary file, fsync, rename).
+    """Write ``sweep`` whole to ``path`` atomically (temporary file, fsync, rename).
+
+    Every done point is sealed first (:meth:`SweepData.seal`); every dataset is contiguous,
+    so later points can be committed in place (:class:`vcavity.io.sweep_points.PointWriter`).
 
     Raises
     ------
     OSError
         The file could not be written; ``path`` is untouched, no temporary file is left.
     """
+    sweep.seal()
     write_hdf5(path, lambda h5: _fill(h5, sweep), track_order=True)
 
 
@@ -321,6 +351,8 @@ def _read(h5, location: Path) -> SweepData:
     sweep.attrs["vcavity_version"] = attrs.get("vcavity_version")
     sweep.attrs["created_utc"] = attrs.get("created_utc")
     for name, (_, dtype, *_rest) in VARIABLES.items():
+        if name in OPTIONAL and name not in h5:
+            continue
         array = h5[name][()]
         sizes = {a.name: len(a.values) for a in axes}
         sizes.update(order=len(sweep.order), cell=len(sweep.cells["theta_o"]))
@@ -333,9 +365,29 @@ def _read(h5, location: Path) -> SweepData:
         else:
             checks.check_numeric(name, array, f"sweep {str(location)!r}")
         sweep.data[name] = array.astype(dtype, copy=False)
+    _verify(sweep)
     radians = {name: h5[name][()] for name in RADIANS.values() if name in h5}
     checks.check_sweep(sweep, radians, f"sweep {str(location)!r}")
     return sweep
+
+
+def _verify(sweep: SweepData) -> None:
+    """Read a point as done only where its checksum matches; give every point not done
+    the values of a pending point (a write cut short may have left some of its bytes)."""
+    done = sweep.data["done"]  # flags out of range stay as read: check_sweep refuses them
+    if "checksum" not in sweep.data:  # written before checksums: done flags as stored
+        sweep.data["checksum"] = np.zeros(done.shape, np.uint64)
+        sweep.seal()
+        return
+    dims = {name: sweep.dims(name) for name in sweep.data}
+    good = sweep_checksum.verified(sweep.data, dims, sweep.point_axes, done, sweep.data["checksum"])
+    sweep.rejected = tuple(tuple(int(i) for i in index) for index in np.ndindex(done.shape)
+                           if done[index] == 1 and not good[index])
+    for index in np.ndindex(done.shape):
+        if done[index] == 1 and not good[index]:
+            done[index] = 0
+        if done[index] == 0:
+            sweep.reset(index)
 
 
 def spec_of(sweep: SweepData) -> dict:
@@ -343,5 +395,5 @@ def spec_of(sweep: SweepData) -> dict:
     return json.loads(sweep.attrs.get("spec", "{}"))
 
 
-__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "GridAxis", "SweepData", "SweepFormatError", "VARIABLES",
+__all__ = ["FORMAT_NAME", "FORMAT_VERSION", "OPTIONAL", "GridAxis", "SweepData", "SweepFormatError", "VARIABLES",
            "is_sweep_file", "open_sweep", "spec_of", "write_sweep"]

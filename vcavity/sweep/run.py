@@ -1,23 +1,28 @@
 """Running a sweep point by point, writing the sweep file after each, and resuming it.
 
 Each point is one run (:class:`vcavity.simulate.pipeline.Simulation`, the same pipeline as
-``vcavity run``: plan, execute work units locally or on Dask, merge in block order). When
-a point finishes, the whole sweep file is rewritten atomically
-(:func:`vcavity.io.sweep_table.write_sweep`), so a kill at any moment loses at most the
-running point; ``--resume`` reads the file back, checks that it holds the same sweep
-(``spec_digest``) and runs the points whose ``done`` flag is 0. Stored values of finished
-points are read back exactly, so a resumed sweep writes the same file as an
-uninterrupted one (apart from timings and the creation date).
+``vcavity run``: plan, execute work units locally or on Dask, merge in block order). The
+first point to finish writes the whole sweep file atomically
+(:func:`vcavity.io.sweep_table.write_sweep`: every dataset allocated, contiguous); each
+later point is committed in place into its own bytes, checksummed, its ``done`` flag last
+(:class:`vcavity.io.sweep_points.PointWriter`), so the I/O of a point does not grow with
+the number of points and a kill at any moment loses at most the running point.
+``--resume`` reads the file back (a point whose checksum fails is read as not done),
+checks that it holds the same sweep (``spec_digest``) and runs the points not done.
+Stored values of finished points are read back exactly, so a resumed sweep writes the
+same file as an uninterrupted one (apart from timings and the creation date).
 """
 
 from __future__ import annotations
 
 import json
+import os
 from typing import Callable
 
 import numpy as np
 
 from vcavity.io import preflight
+from vcavity.io.sweep_points import NotInPlace, PointWriter
 from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
 from vcavity.sweep.spec import Point, Sweep, SweepError, overrides_text
 
@@ -74,6 +79,7 @@ def resume_data(sweep: Sweep, path, shown: str, field: str = "--output") -> Swee
     data = sweep.new_data()
     for name, array in data.data.items():
         array[...] = stored.data[name]
+    data.path, data.rejected = stored.path, stored.rejected  # later points go into this file, in place
     return data
 
 
@@ -133,6 +139,9 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
     data = resume_data(sweep, out.path, out.shown, out.field) if resume and exists else sweep.new_data()
     if resume and not exists:
         note = f"{out.shown}: nothing to resume yet, starting the sweep"
+    if data.rejected:
+        note = (f"{out.shown}: {len(data.rejected)} point(s) marked done fail their checksum (a write cut "
+                "short or changed bytes); they are run again")
     removed = preflight.probe_output(out)
     preflight.check_disk_space(out, sweep_bytes(sweep))
     if removed:
@@ -174,16 +183,39 @@ def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, ch
     """
     from vcavity.simulate.pipeline import Simulation
 
-    for point in sweep.points:
-        if data.data["done"][point.index]:
-            continue
-        simulation = Simulation(point.config, threads=threads, chunk_blocks=chunk_blocks)
-        result = simulation.run(on_progress=on_progress, executor=executor)
-        record(sweep, data, point, result)
-        write_sweep(output, data)
-        if on_point is not None:
-            on_point(point, data)
+    writer = _attach(output, data)
+    try:
+        for point in sweep.points:
+            if data.data["done"][point.index]:
+                continue
+            simulation = Simulation(point.config, threads=threads, chunk_blocks=chunk_blocks)
+            result = simulation.run(on_progress=on_progress, executor=executor)
+            record(sweep, data, point, result)
+            if writer is None:  # a new sweep, or a file from before in-place commits: written whole once
+                write_sweep(output, data)
+                writer = PointWriter(output, data)
+            else:
+                writer.commit(point.index)
+            if on_point is not None:
+                on_point(point, data)
+    finally:
+        if writer is not None:
+            writer.close()
     return data
+
+
+def _attach(output, data: SweepData) -> PointWriter | None:
+    """The writer of the file ``data`` was resumed from, when points remain and it takes
+    them in place; None when the first finished point writes the whole file."""
+    resumed = data.path is not None and os.path.abspath(data.path) == os.path.abspath(output)
+    if not resumed or data.n_done() == data.data["done"].size:
+        return None
+    try:
+        return PointWriter(output, data)
+    except NotInPlace as exc:
+        if exc.convertible:
+            return None
+        raise OSError(f"{output} changed since it was read ({exc}); it was not replaced") from None
 
 
 def paths_done(sweep: Sweep, data: SweepData) -> int:
