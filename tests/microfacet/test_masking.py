@@ -95,6 +95,42 @@ def test_smith_lambda_edges(module):
         assert lam >= 0.0 and not math.isnan(lam)
 
 
+@njit(cache=True)
+def _bound_rows(kind, v, params):
+    out = np.empty(v.shape[0])
+    for k in range(v.shape[0]):
+        out[k] = registry.smith_lambda_bound(kind, v[k, 0], v[k, 1], v[k, 2], params)
+    return out
+
+
+@pytest.mark.parametrize("module", [beckmann, ggx])
+@pytest.mark.parametrize(("ax", "ay"), [(0.05, 0.05), (0.6, 0.6), (0.2, 0.6), (2.0, 2.0)])
+def test_smith_lambda_bound_bounds(module, ax, ay):
+    """The walk's escape bound: >= Lambda (reference, scipy) everywhere, and as tight as
+    A&S 7.1.13 makes it for Beckmann (within 1 + 1/(2 a^2) for a >= 2, 1.6 below); GGX's is
+    Lambda itself (the registry's fallback)."""
+    params = params_of(module, ax, ay)
+    v = random_directions(np.random.default_rng(9), 4000, max_theta=math.radians(89.9))
+    bound = _bound_rows(registry.kind_of(module.NAME), np.ascontiguousarray(v), params)
+    theta, phi = np.arccos(v[:, 2]), np.arctan2(v[:, 1], v[:, 0])
+    a = 1.0 / (np.sqrt(np.cos(phi) ** 2 * ax**2 + np.sin(phi) ** 2 * ay**2) * np.tan(theta))
+    if module is beckmann:
+        # (exp(-a^2)/(a sqrt(pi)) - erfc(a))/2 with erfc = erfcx exp(-a^2): relative error
+        # ~ 2 a^2 ulp, where the textbook form (lambda_reference) loses everything once
+        # Lambda < 1e-16
+        ref = 0.5 * np.exp(-a * a) * (1.0 / (a * math.sqrt(math.pi)) - special.erfcx(a))
+    else:
+        ref = lambda_reference(module.NAME, v, ax, ay)
+    keep = (ref > 1e-280) & (a < 20.0)  # the reference's terms have not underflowed
+    assert np.all(bound[keep] >= ref[keep] * (1.0 - 1e-9))
+    if module is ggx:
+        np.testing.assert_allclose(bound, ref, rtol=1e-9, atol=1e-15)
+        return
+    big = keep & (a >= 2.0)
+    assert np.all(bound[big] <= ref[big] * (1.0 + 0.5 / a[big] ** 2) * (1.0 + 1e-6))
+    assert np.all(bound[keep & (a < 2.0)] <= 1.6 * ref[keep & (a < 2.0)])
+
+
 @pytest.mark.parametrize(("ax", "ay"), [(0.3, 0.3), (0.2, 0.6)])
 def test_walter_fit_within_stated_error(ax, ay):
     """W eq. 27: G1 of the rational fit within 0.35 % of exact (checked at < 0.4 %)."""

@@ -4,7 +4,7 @@ the second microsurface beside the V-groove walk of :mod:`vcavity.kernels.trace`
 A Smith microsurface has uncorrelated heights and slopes. A ray inside it is a direction
 ``w`` and a height ``h``; the next facet it meets is found in two draws, the height of the
 intersection (or escape) from the Smith masking of ``w`` and the facet normal from the
-normals visible against ``w`` (:func:`vcavity.microfacet.registry.sample_visible`). The
+normals visible against ``w`` (:func:`vcavity.microfacet.registry.sample_visible_stream`). The
 facet event is the same code as in the V-groove walk (:func:`vcavity.facet.registry.event`),
 in a frame turned about ``z`` so that the facet normal lies in its x-z plane.
 
@@ -38,10 +38,13 @@ from vcavity.sensor.binning import bin_block
 
 
 @njit(cache=True, inline="always")
-def _trace_smith_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant, facet_data, max_bounces):
+def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, facet_variant, facet_data,
+                      max_bounces):
     """Trace one path from the light into the Smith microsurface until it leaves or ends.
 
-    Returns ``(state, outcome, bounces, wx, wy, wz)`` as the V-groove walk's ``_trace_path``.
+    ``lam_i`` is ``Lambda(i)``, the same for every path of a direction (computed once by the
+    kernel). Returns ``(state, outcome, bounces, wx, wy, wz)`` as the V-groove walk's
+    ``_trace_path``.
     """
     wx, wy, wz = -ix, -iy, -iz
     # log C1 of the current height, C1 the share of the surface below it (0: above all of it);
@@ -51,24 +54,32 @@ def _trace_smith_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_va
     while True:
         state, u = next_uniform(state)
         log_s = math.log(1.0 - u)  # 1 - u is uniform on (0, 1]: finite
+        # lam_v: Lambda of v = -w, the direction the next facet is seen from, which the
+        # visible-normal sampler may use (Beckmann's does: C(mu) = mu (1 + Lambda(v)))
         if wz > 0.0:
             # travelling up: no facet in the way with probability G1 = c^Λ(w) (Heitz 2016 eq. 5);
-            # else the facet's height has C1 = c / s^(1/Λ), s = 1 - u uniform above c^Λ
-            lam = distributions.smith_lambda(dist_kind, wx, wy, wz, params)
+            # else the facet's height has C1 = c / s^(1/Λ), s = 1 - u uniform above c^Λ.
+            # log_c <= 0, so an upper bound of Λ that lets the ray out decides it without Λ
+            # (Beckmann's bound needs no erfc; most rays leave here)
+            bound = distributions.smith_lambda_bound(dist_kind, wx, wy, wz, params)
+            if log_s < bound * log_c:
+                break
+            lam = distributions.smith_lambda_past_bound(dist_kind, bound, wx, wy, wz, params)
             if log_s < lam * log_c:
                 break
             log_c -= log_s / lam
+            lam_v = -1.0 - lam  # v below the horizon: Λ(v) = -1 - Λ(-v) (Heitz 2016 sec. 4.1)
         elif wz < 0.0:
-            # travelling down it meets the surface surely; P(not above C1 = x) = (x/c)^(1 + Λ(-w))
-            lam = distributions.smith_lambda(dist_kind, -wx, -wy, -wz, params)
-            log_c += log_s / (1.0 + lam)
-        # (a horizontal ray meets the surface at its own height)
+            # travelling down it meets the surface surely; P(not above C1 = x) = (x/c)^(1 + Λ(-w));
+            # the first step is the incident direction's, its Λ known
+            lam_v = lam_i if k == 0 else distributions.smith_lambda(dist_kind, -wx, -wy, -wz, params)
+            log_c += log_s / (1.0 + lam_v)
+        else:
+            lam_v = 0.0  # (a horizontal ray meets the surface at its own height; mu = 0)
         if k == max_bounces:
             return state, TRUNCATED, k, 0.0, 0.0, 0.0
         k += 1
-        state, u1 = next_uniform(state)
-        state, u2 = next_uniform(state)
-        mx, my, mz = distributions.sample_visible(dist_kind, -wx, -wy, -wz, u1, u2, params)
+        state, mx, my, mz = distributions.sample_visible_stream(dist_kind, state, -wx, -wy, -wz, lam_v, params)
         cos_in = -(wx * mx + wy * my + wz * mz)
         if not cos_in > 0.0:  # a normal seen edge-on, by rounding
             return state, DEGENERATE, k, 0.0, 0.0, 0.0
@@ -120,6 +131,7 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
+        lam_i = distributions.smith_lambda(DIST, ix, iy, iz, params)  # the first step's, every path's
         for slot in prange(n_slots):
             slot_counts = counts[slot]
             lost = np.zeros(3, np.int64)  # absorbed, truncated, degenerate
@@ -131,7 +143,7 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
                 n_exits = 0
                 for _ in range(n_here):
                     state, outcome, k, wx, wy, wz = _trace_smith_path(
-                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
+                        state, ix, iy, iz, lam_i, params, DIST, FACET, VARIANT, facet_data, max_bounces)
                     deepest = max(deepest, k)
                     if outcome == EXITED:
                         if k < first_binned_order:

@@ -1,10 +1,7 @@
 """Anisotropic Beckmann distribution of microfacet normals.
 
 ``params`` layout (float64): ``[alpha_x, alpha_y]`` (Beckmann ``alpha = sqrt(2)
-sigma_slope``, physics.md sec. 1-2), then the visible-slope sampler's guess table
-(:mod:`vcavity.microfacet.beckmann_visible`); every function but :func:`sample_visible` reads
-the first two entries only, and :func:`sample_visible` takes a bare ``[alpha_x, alpha_y]``
-too (slower).
+sigma_slope``, physics.md sec. 1-2).
 
 - ``D(m) = exp(-tan^2 theta_m (cos^2 phi_m/alpha_x^2 + sin^2 phi_m/alpha_y^2))
   / (pi alpha_x alpha_y cos^4 theta_m)`` (H eq. 82, W eq. 25 when isotropic).
@@ -14,8 +11,6 @@ too (slower).
 """
 
 import math
-
-import numpy as np
 
 from vcavity.microfacet import beckmann_visible as visible
 from vcavity.microfacet.common import (
@@ -27,6 +22,7 @@ from vcavity.microfacet.common import (
     visible_normal,
 )
 from vcavity.parameters import Roughness
+from vcavity.rng import next_uniform
 from vcavity._numba.jit import njit
 
 NAME = "beckmann"
@@ -42,24 +38,8 @@ _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
 
 #: The smaller alpha as the lobe width.
 lobe_width = alpha_lobe_width
-_VISIBLE_PARAMS = 2 + (visible.TABLE_T + 1) * (visible.TABLE_U + 1)
-
-
-def params_from(values):
-    """Parameter array ``[alpha_x, alpha_y, table...]`` (module docstring) from the canonical values.
-
-    Parameters
-    ----------
-    values : mapping
-        ``alpha_x``, ``alpha_y`` (> 0), validated upstream.
-
-    Returns
-    -------
-    ndarray, shape (2 + 65 * 65,)
-        The roughness, then the visible-slope guess table of
-        :func:`vcavity.microfacet.beckmann_visible.guess_table` (the same for every alpha).
-    """
-    return np.concatenate((alpha_params_from(values), visible.guess_table()))
+#: Parameter array ``[alpha_x, alpha_y]`` from the canonical values.
+params_from = alpha_params_from
 
 
 @njit(cache=True)
@@ -206,6 +186,32 @@ def smith_lambda(vx, vy, vz, params):
 
 
 @njit(cache=True)
+def smith_lambda_bound(vx, vy, vz, params):
+    """An upper bound of :func:`smith_lambda` without ``erfc``: the Smith walk's escape test.
+
+    From Abramowitz and Stegun 7.1.13, ``erfc(a) > (2/sqrt(pi)) exp(-a^2)/(a + sqrt(a^2 + 2))``,
+    so ``Lambda(a) < exp(-a^2) / (sqrt(pi) a (a + sqrt(a^2 + 2))^2)`` (H eq. 69), within a
+    factor ``1 + 1/(2 a^2)`` of it for large ``a`` and about 1.5 at ``a = 1``. A ray whose
+    escape is decided by the bound needs no exact ``Lambda``.
+
+    Arguments and results as in the distribution interface
+    (:mod:`vcavity.microfacet.registry`); ``params``: ``[alpha_x, alpha_y]``. Returns:
+    ``>= smith_lambda(v)``; the same edge conventions.
+    """
+    if vz >= 1.0:
+        return 0.0
+    if vz <= 0.0:
+        return math.inf
+    a = _a_of_direction(vx, vy, vz, params[0], params[1])
+    if a < 0.0:
+        return 0.0
+    if a <= 0.0:
+        return math.inf
+    b = a + math.sqrt(a * a + 2.0)
+    return math.exp(-a * a) * _INV_SQRT_PI / (a * b * b)
+
+
+@njit(cache=True)
 def smith_lambda_walter_fit(vx, vy, vz, params):
     """Walter's rational fit of the Beckmann Smith ``Lambda`` (W eq. 27).
 
@@ -236,7 +242,9 @@ def sample_visible(vx, vy, vz, u1, u2, params):
     alpha_y vy, vz)``) the slope along ``v'``'s azimuth has the density ``(mu - x)+
     exp(-x^2)/sqrt(pi)`` up to a constant, ``mu = cot theta_v'``, sampled by inverting its
     CDF (:mod:`vcavity.microfacet.beckmann_visible`); the slope across it is independent, ``exp(-y^2)/sqrt(pi)``
-    (:func:`_normal_quantile`). The slopes are rotated to ``v'``'s azimuth and stretched back.
+    (:func:`vcavity.microfacet.beckmann_visible.normal_quantile`). The slopes are rotated to ``v'``'s azimuth and stretched back.
+    The root is found from the solver's bracket (about eight evaluations of ``C``); the
+    Smith walk uses the faster :func:`sample_visible_stream`.
 
     Parameters
     ----------
@@ -263,8 +271,60 @@ def sample_visible(vx, vy, vz, u1, u2, params):
         r = math.sqrt(-math.log1p(-min(u1, _ONE_MINUS_ULP)))
         return visible_normal(1.0, 0.0, r * math.cos(_TWO_PI * u2), r * math.sin(_TWO_PI * u2), ax, ay)
     mu = vz / sin_v  # cot of the stretched view
-    guess = (visible.guess(u1, mu, params[2:]) if params.shape[0] == _VISIBLE_PARAMS
-             else math.inf)  # a bare [alpha_x, alpha_y]: the solver starts from its bracket
-    x = visible.solve_slope(u1, mu, guess)
+    x = visible.solve_slope(u1, mu, math.inf)
     y = visible.normal_quantile(u2)
     return visible_normal(sx / sin_v, sy / sin_v, x, y, ax, ay)
+
+
+@njit(cache=True)
+def sample_visible_stream(state, vx, vy, vz, lam, params):
+    """:func:`sample_visible`'s density, drawn from the random stream: the Smith walk's sampler
+    (physics.md sec. 14).
+
+    The slope along the stretched view's azimuth comes from the exact mixture-rejection
+    scheme of :func:`vcavity.microfacet.beckmann_visible.sample_slope_along`, whose mixture
+    weights need ``C(mu) = mu (1 + Lambda(v))``: the walk has just computed ``Lambda(v)``
+    for its height step, so it is passed in and no ``erfc`` is evaluated here. The slope
+    across is a normal quantile of one uniform.
+
+    Parameters
+    ----------
+    state : uint64
+        Random stream state (:mod:`vcavity.rng`).
+    vx, vy, vz : float
+        Unit direction seen from, as for :func:`sample_visible`.
+    lam : float
+        ``Lambda(v)`` (:func:`smith_lambda`) when ``vz > 0``; unused otherwise.
+    params : ndarray
+        ``[alpha_x, alpha_y, ...]``.
+
+    Returns
+    -------
+    state, mx, my, mz
+        The advanced state and a unit normal, ``mz > 0``.
+    """
+    ax = params[0]
+    ay = params[1]
+    sx = ax * vx
+    sy = ay * vy
+    sin_v = math.sqrt(sx * sx + sy * sy)
+    if sin_v == 0.0:  # seen from the normal: every normal visible in proportion to D(m)(m.n)
+        cos_v, sin_v = 1.0, 0.0
+        state, u = next_uniform(state)
+        x = visible.normal_quantile(u)
+    else:
+        inv = 1.0 / sin_v
+        mu = vz * inv  # cot of the stretched view
+        cos_v, sin_v = sx * inv, sy * inv
+        state, x = visible.sample_slope_along(state, mu, mu * (1.0 + lam))
+    state, u = next_uniform(state)
+    y = visible.normal_quantile(u)
+    mx = -ax * (cos_v * x - sin_v * y)
+    my = -ay * (sin_v * x + cos_v * y)
+    if abs(mx) < 1e150 and abs(my) < 1e150:
+        # visible_normal's normalisation with one division (|x|, |y| < 40: the squares
+        # cannot overflow unless alpha is extreme, which takes the general path)
+        inv = 1.0 / math.sqrt(mx * mx + my * my + 1.0)
+        return state, mx * inv, my * inv, inv
+    mx, my, mz = visible_normal(cos_v, sin_v, x, y, ax, ay)
+    return state, mx, my, mz

@@ -6,28 +6,33 @@ view's azimuth has the CDF ``C(x) = (mu/2) erfc(-x) + exp(-x^2)/(2 sqrt(pi))`` u
 variance 1/2. Both are inverted exactly (to rounding) and fast:
 
 - the slope along, by Newton on ``log C`` (concave: from the left Newton never passes the
-  root, from the right one step lands left of it) started from a bilinear table of the
-  inverse (:func:`guess_table`, in the distribution's ``params``): two evaluations of ``C``
-  in most cases, against eight from a bisection start;
+  root, from the right one step lands left of it) from the middle of a bracket, about eight
+  evaluations of ``C``;
 - the slope across, by Wichura's rational approximations of the normal quantile (AS 241,
   Applied Statistics 37(3), 1988, 477-484; relative error about 1e-16), with no iteration.
+
+The Smith walk draws the slope along from its random stream instead
+(:func:`sample_slope_along`): an exact mixture of three pieces of the density, one of them
+by rejection, with no ``erfc`` and no iteration to a root (physics.md sec. 14): 20-35 ns
+a slope against ~260 ns for the inversion even from a table of guesses (docs/performance.md).
 """
 
-import functools
 import math
 
-import numpy as np
-
 from vcavity._numba.jit import njit
+from vcavity.rng import next_uniform
 
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
+_HALF_INV_SQRT_PI = 0.5 / math.sqrt(math.pi)
+#: Below this ``mu`` the piece on ``(0, mu]`` is proposed from the triangle ``mu - x``, above
+#: it from the half-normal: their acceptance rates are the piece's mass over ``mu^2/2`` and
+#: over ``mu sqrt(pi)/2``, equal at ``mu = sqrt(pi)`` (0.68 there, rising to 1 either side).
+MU_TRIANGLE = math.sqrt(math.pi)
+#: Above this ``mu`` the view is the normal's to rounding (the density's factor ``mu - x``
+#: is ``mu (1 - x/mu)``, ``|x| < 40``): the slope is a normal deviate, and no infinite ``mu``
+#: reaches a rejection loop.
+MU_NORMAL_VIEW = 1e150
 _INV_SQRT2 = 1.0 / math.sqrt(2.0)
-
-#: The guess table: ``TABLE_T + 1`` nodes of ``t = mu/(1 + |mu|)`` over [-1, 1] by
-#: ``TABLE_U + 1`` nodes of ``u`` over [0, 1], of ``x - min(mu, 0)`` (bounded in both
-#: directions of ``mu``: the normal quantile as ``mu -> inf``, 0 as ``mu -> -inf``).
-TABLE_T = 64
-TABLE_U = 64
 
 # Wichura's AS 241 (PPND16): numerator and denominator coefficients, highest degree first,
 # of the central region |q| <= 0.425 (variable r = 0.180625 - q^2), the tails with
@@ -127,33 +132,74 @@ def solve_slope(u, mu, x):
 
 
 @njit(cache=True)
-def guess(u, mu, table):
-    """Bilinear interpolation of the guess table (:data:`TABLE_T` x :data:`TABLE_U`) at ``(mu, u)``."""
-    t = (mu / (1.0 + abs(mu)) + 1.0) * (0.5 * TABLE_T)
-    i = min(max(int(t), 0), TABLE_T - 1)
-    wt = min(max(t - i, 0.0), 1.0)
-    s = u * TABLE_U
-    j = min(max(int(s), 0), TABLE_U - 1)
-    wu = min(max(s - j, 0.0), 1.0)
-    row = TABLE_U + 1
-    k = i * row + j
-    g0 = table[k] + wu * (table[k + 1] - table[k])
-    g1 = table[k + row] + wu * (table[k + row + 1] - table[k + row])
-    return g0 + wt * (g1 - g0) + min(mu, 0.0)
+def sample_slope_along(state, mu, total):
+    """The slope ``x <= mu`` with density ``(mu - x) exp(-x^2)/sqrt(pi) / total`` from the
+    random stream ``state`` (physics.md sec. 14): the exact alternative to :func:`solve_slope`.
 
+    For ``mu > 0`` the density is the mixture of ``mu exp(-x^2)`` on ``x <= 0`` (mass
+    ``mu/2``; a half-normal by :func:`normal_quantile`), ``-x exp(-x^2)`` on ``x <= 0`` (mass
+    ``1/(2 sqrt(pi))``; ``x = -sqrt(-log u)``) and ``(mu - x) exp(-x^2)`` on ``(0, mu]`` (the
+    rest), the last by rejection: proposed from the triangle ``mu - x`` (``x = mu (1 - sqrt u)``)
+    and accepted with ``exp(-x^2)`` when ``mu <= MU_TRIANGLE``, else proposed half-normal and
+    accepted with ``(mu - x)/mu``. For ``mu <= 0``, ``x = mu - s`` with ``s >= 0`` of density
+    ``s exp(-(m + s)^2)``, ``m = -mu``: proposed ``Gamma(2, rate l)``, accepted with
+    ``exp(-(s - s*)^2)``, ``s* = l/2 - m``, which bounds the ratio of the two; the rate
+    ``l = m + sqrt(m^2 + 4)`` maximises the acceptance (0.74 at ``m = 0``, rising to 1).
 
-@functools.lru_cache(maxsize=1)
-def guess_table() -> np.ndarray:
-    """The inverse of ``C`` at the table's nodes (flattened, ``t`` major), minus ``min(mu, 0)``:
-    computed once per process by :func:`solve_slope` from the bracket's midpoint (exact)."""
-    table = np.empty((TABLE_T + 1) * (TABLE_U + 1))
-    for i in range(TABLE_T + 1):
-        t = min(max(-1.0 + 2.0 * i / TABLE_T, -1.0 + 1e-6), 1.0 - 1e-6)
-        # below mu = -20 a view sees only slopes past -20, where C underflows: the walk
-        # meets such facets with probability ~exp(-400); those nodes repeat mu = -20's
-        mu = max(t / (1.0 - abs(t)), -20.0)
-        for j in range(TABLE_U + 1):
-            u = min(max(j / TABLE_U, 1e-12), 1.0 - 1e-12)
-            table[i * (TABLE_U + 1) + j] = solve_slope(u, mu, math.inf) - min(mu, 0.0)
-    table.setflags(write=False)
-    return table
+    The rejection loops have no try counter: with one, LLVM compiles them about ten times
+    slower (measured, docs/performance.md). They end with probability 1 (acceptance >= 0.68)
+    and on a NaN ``mu`` (a NaN slope, which the walk counts degenerate).
+
+    Parameters
+    ----------
+    state : uint64
+        Random stream state (:mod:`vcavity.rng`).
+    mu : float
+        ``cot`` of the stretched view (``mu > 0`` above the horizon).
+    total : float
+        ``C(mu) = mu (1 + Lambda(mu))`` for ``mu > 0`` (Beckmann's Lambda, H eq. 69, as the
+        walk has it); unused for ``mu <= 0``. Recomputed (:func:`visible_cdf`) when not finite.
+
+    Returns
+    -------
+    state, x
+        The advanced state and the slope.
+    """
+    if mu > 0.0:
+        state, u = next_uniform(state)
+        if mu > MU_NORMAL_VIEW:
+            return state, normal_quantile(u)
+        if not total < math.inf:
+            total = visible_cdf(mu, mu)
+        pick = u * total
+        half = 0.5 * mu
+        state, u = next_uniform(state)
+        if pick < half:
+            return state, normal_quantile(0.5 * u)
+        if pick < half + _HALF_INV_SQRT_PI:
+            return state, -math.sqrt(-math.log(1.0 - u))
+        if mu <= MU_TRIANGLE:
+            while True:
+                state, w = next_uniform(state)
+                x = mu * (1.0 - math.sqrt(u))
+                if w < math.exp(-x * x):
+                    return state, x
+                state, u = next_uniform(state)
+        while True:
+            state, w = next_uniform(state)
+            x = normal_quantile(0.5 + 0.5 * u)
+            if x < mu and w * mu < mu - x:
+                return state, x
+            state, u = next_uniform(state)
+    m = -mu
+    root = math.sqrt(m * m + 4.0) if m < 1e150 else m
+    peak = 2.0 / (root + m)  # s* = l/2 - m, written without cancellation
+    rate = 2.0 * (m + peak)
+    while True:
+        state, u1 = next_uniform(state)
+        state, u2 = next_uniform(state)
+        state, w = next_uniform(state)
+        s = -math.log((1.0 - u1) * (1.0 - u2)) / rate
+        d = s - peak
+        if w < math.exp(-d * d) or not d == d:
+            return state, mu - s

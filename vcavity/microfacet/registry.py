@@ -31,7 +31,14 @@ Optional: ``sample_visible(vx, vy, vz, u1, u2, params) -> (mx, my, mz)``, a norm
 density of the normals visible from ``v``, ``<v, m>+ D(m)`` normalised (physics.md sec. 14):
 the Smith random walk's facet sampling; :func:`has_visible_sampler` says which distributions
 offer it. Every distribution with a finite Smith ``Lambda`` does; one whose ``SMITH`` is
-``"infinite"`` (the Gaussian) cannot be walked and need not.
+``"infinite"`` (the Gaussian) cannot be walked and need not. Optional beside it:
+``sample_visible_stream(state, vx, vy, vz, lam, params) -> (state, mx, my, mz)``, the same
+density drawn from a random stream (:mod:`vcavity.rng`) given ``lam = Lambda(v)`` (for
+``vz > 0``), for samplers that are faster by rejection or with ``Lambda`` known (Beckmann's);
+:func:`sample_visible_stream` falls back to ``sample_visible`` on two uniforms of the stream.
+Optional too: ``smith_lambda_bound(vx, vy, vz, params)``, an upper bound of ``smith_lambda``
+cheaper than it, which lets the walk decide most escapes without the exact ``Lambda``
+(Beckmann's needs no ``erfc``); :func:`smith_lambda_bound` falls back to ``smith_lambda``.
 
 Arguments and results of the jitted scalars, the same in every module (each module's
 docstrings add only what is its own): ``mx, my, mz`` a unit microfacet normal; ``vx, vy,
@@ -62,6 +69,7 @@ import numpy as np
 from vcavity._numba.jit import njit
 from vcavity._numba.registry import Registry
 from vcavity.parameters import ParameterError
+from vcavity.rng import next_uniform
 
 #: Registered distributions, by module name under ``vcavity.microfacet``: one line each.
 DISTRIBUTION_MODULES = (
@@ -120,6 +128,82 @@ smith_lambda = REGISTRY.dispatcher("smith_lambda", ("vx", "vy", "vz", "params"))
 #: which the Smith walk counts as degenerate (it refuses such distributions before tracing).
 sample_visible = REGISTRY.dispatcher("sample_visible", ("vx", "vy", "vz", "u1", "u2", "params"),
                                      missing="(math.nan, math.nan, math.nan)")
+
+
+_own_stream_sampler = REGISTRY.dispatcher("sample_visible_stream", ("state", "vx", "vy", "vz", "lam", "params"),
+                                         missing="(state, math.nan, math.nan, math.nan)")
+#: Per kind: does the module define ``sample_visible_stream``?
+_HAS_STREAM_SAMPLER = tuple(hasattr(module, "sample_visible_stream") for module in MODULES)
+
+
+@njit(cache=True, inline="always")
+def sample_visible_stream(kind, state, vx, vy, vz, lam, params):
+    """A visible normal from ``v`` (physics.md sec. 14) drawn from the random stream ``state``.
+
+    The distribution's own ``sample_visible_stream`` where it has one, else its
+    ``sample_visible`` on the stream's next two uniforms. ``kind`` is a compile-time constant
+    in the walk, so the choice costs nothing.
+
+    Parameters
+    ----------
+    kind : int
+        Dispatch index.
+    state : uint64
+        Random stream state (:mod:`vcavity.rng`).
+    vx, vy, vz : float
+        Unit direction seen from (``sample_visible``'s).
+    lam : float
+        ``Lambda(v)`` when ``vz > 0`` (the walk's, :func:`smith_lambda`); unused otherwise.
+    params : ndarray
+        The distribution's parameter array.
+
+    Returns
+    -------
+    state, mx, my, mz
+        The advanced state and a unit normal (NaN where the distribution has no sampler).
+    """
+    if _HAS_STREAM_SAMPLER[kind]:
+        return _own_stream_sampler(kind, state, vx, vy, vz, lam, params)
+    state, u1 = next_uniform(state)
+    state, u2 = next_uniform(state)
+    mx, my, mz = sample_visible(kind, vx, vy, vz, u1, u2, params)
+    return state, mx, my, mz
+
+
+_own_lambda_bound = REGISTRY.dispatcher("smith_lambda_bound", ("vx", "vy", "vz", "params"), missing="math.inf")
+_HAS_LAMBDA_BOUND = tuple(hasattr(module, "smith_lambda_bound") for module in MODULES)
+
+
+@njit(cache=True, inline="always")
+def smith_lambda_bound(kind, vx, vy, vz, params):
+    """An upper bound of ``smith_lambda(kind, v)``: the module's own where it has one, else Lambda itself.
+
+    Parameters
+    ----------
+    kind : int
+        Dispatch index (a compile-time constant in the walk).
+    vx, vy, vz : float
+        Unit direction.
+    params : ndarray
+        The distribution's parameter array.
+
+    Returns
+    -------
+    float
+        ``>= smith_lambda(kind, vx, vy, vz, params)``.
+    """
+    if _HAS_LAMBDA_BOUND[kind]:
+        return _own_lambda_bound(kind, vx, vy, vz, params)
+    return smith_lambda(kind, vx, vy, vz, params)
+
+
+@njit(cache=True, inline="always")
+def smith_lambda_past_bound(kind, bound, vx, vy, vz, params):
+    """``smith_lambda(kind, v)`` once :func:`smith_lambda_bound` gave ``bound`` for the same ``v``:
+    ``bound`` itself where it is Lambda (no bound of the module's own), so nothing is evaluated twice."""
+    if _HAS_LAMBDA_BOUND[kind]:
+        return smith_lambda(kind, vx, vy, vz, params)
+    return bound
 
 
 def has_visible_sampler(name: str) -> bool:
@@ -200,5 +284,6 @@ def sample_normals(kind: int, u1, u2, params) -> np.ndarray:
 __all__ = ["DISTRIBUTION_MODULES", "REGISTRY", "MODULES", "NAMES", "ParameterError", "get", "kind_of", "parse",
            "config_keys", "value_keys", "is_isotropic", "params_from", "lobe_width", "help_lines",
            "sample", "sample_normal", "sample_disk", "D", "pdf", "smith_lambda", "sample_visible",
+           "sample_visible_stream", "smith_lambda_bound", "smith_lambda_past_bound",
            "has_visible_sampler", "smith_walk_refusal", "evaluate",
            "sample_normals"]
