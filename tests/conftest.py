@@ -11,3 +11,82 @@ import signal
 
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+# --- Compiling the suite's kernel variants first, in parallel (issue 21 item 5) ----------
+#
+# Most of a cold run of the default suite is Numba compiling the ~20 kernel variants its
+# tests use, one at a time, each in whichever test needs it first (docs/performance.md,
+# "Where the cold default suite's time goes"). When the whole suite runs on several xdist
+# workers (pyproject's addopts: -n 2), the controller first compiles them into the cache
+# in as many processes as there are workers (what `vcavity warmup` does for a cluster), so
+# the workers load them instead of each compiling the same ones. Only for a whole-suite
+# run (no paths or node ids given): a run of a few files compiles just what it needs.
+# A variant missing from the list is compiled on first use as before; a failed warm-up
+# is reported and changes nothing else. The list: scripts/pytest_compile_log.py on a cold
+# cache, each with its cold compile in seconds there (a heavily loaded machine), which
+# balances the processes.
+SUITE_VARIANTS = {
+    ("v-cavity", "beckmann", "interfaced_lambertian", "interfaced lambertian"): 173,
+    ("v-cavity", "phong", "interfaced_lambertian", "interfaced lambertian"): 116,
+    ("v-cavity", "gaussian", "interfaced_lambertian", "lambertian"): 110,
+    ("v-cavity", "gaussian", "interfaced_lambertian", "interfaced lambertian"): 109,
+    ("v-cavity", "ggx", "mirror", "mirror"): 100,
+    ("v-cavity", "ggx", "interfaced_lambertian", "lambertian"): 95,
+    ("smith", "ggx", "mirror", "mirror"): 92,
+    ("v-cavity", "ggx", "interfaced_lambertian", "interfaced lambertian"): 84,
+    ("v-cavity", "beckmann", "interfaced_lambertian", "specular dielectric"): 82,
+    ("v-cavity", "ggx", "interfaced_lambertian", "specular dielectric"): 76,
+    ("v-cavity", "beckmann", "interfaced_lambertian", "lambertian"): 70,
+    ("smith", "student_t", "mirror", "mirror"): 68,
+    ("v-cavity", "beckmann", "conductor", "conductor"): 64,
+    ("v-cavity", "student_t", "interfaced_lambertian", "interfaced lambertian"): 57,
+    ("smith", "beckmann", "mirror", "mirror"): 51,
+    ("smith", "beckmann", "interfaced_lambertian", "interfaced lambertian"): 49,
+    ("v-cavity", "phong", "interfaced_lambertian", "specular dielectric"): 49,
+    ("smith", "phong", "mirror", "mirror"): 38,
+    ("v-cavity", "beckmann", "mirror", "mirror"): 27,
+    ("smith", "ggx", "interfaced_lambertian", "lambertian"): 24,
+}
+
+_WARM = ("import json, sys\n"
+         "from vcavity.simulate.warmup import Variant, compile_variant\n"
+         "for v in json.loads(sys.argv[1]):\n"
+         "    compile_variant(Variant(*v))\n")
+
+
+def _warm_groups(variants: dict, n: int) -> list[list]:
+    """``variants`` in ``n`` groups of about equal cost (largest first, each to the lightest group)."""
+    groups = [[] for _ in range(n)]
+    load = [0.0] * n
+    for variant, cost in sorted(variants.items(), key=lambda item: -item[1]):
+        k = load.index(min(load))
+        groups[k].append(list(variant))
+        load[k] += cost
+    return [g for g in groups if g]
+
+
+def pytest_configure(config):
+    import subprocess
+    import sys
+    import time
+
+    workers = getattr(config.option, "numprocesses", None)
+    if (hasattr(config, "workerinput") or not isinstance(workers, int) or workers < 2
+            or config.args_source is not config.ArgsSource.TESTPATHS or config.option.collectonly):
+        return
+    t0 = time.perf_counter()
+    children = [subprocess.Popen([sys.executable, "-c", _WARM, __import__("json").dumps(group)],
+                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                for group in _warm_groups(SUITE_VARIANTS, workers)]
+    try:
+        failed = [child.communicate()[1] for child in children if child.wait() != 0]
+    except BaseException:
+        for child in children:
+            child.kill()
+        raise
+    note = (f"tests: {len(SUITE_VARIANTS)} kernel variants compiled into (or loaded from) the Numba cache "
+            f"in {len(children)} processes, {time.perf_counter() - t0:.0f} s")
+    if failed:
+        note += f"; a warm-up process failed (its variants compile on first use): {failed[0].strip()[-300:]}"
+    print(note, file=sys.stderr)

@@ -421,5 +421,5 @@ def test_references_import_no_package_physics():
                 names = [node.module or ""]
             for name in names:
                 assert not name.startswith("vcavity"), f"{path.name} imports {name}"
-                assert name.split(".")[0] in {"__future__", "math", "dataclasses", "functools", "numpy",
+                assert name.split(".")[0] in {"__future__", "math", "re", "pathlib", "dataclasses", "functools", "numpy",
                                               "scipy", "tests"}, f"{path.name} imports {name}"
