@@ -7,7 +7,11 @@ Python's default handler here, and so the default disposition in the processes t
 start (a Python-level handler is reset to the default by exec; an ignored signal is not).
 """
 
+import json
 import signal
+import subprocess
+import sys
+import time
 
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
@@ -67,16 +71,12 @@ def _warm_groups(variants: dict, n: int) -> list[list]:
 
 
 def pytest_configure(config):
-    import subprocess
-    import sys
-    import time
-
     workers = getattr(config.option, "numprocesses", None)
     if (hasattr(config, "workerinput") or not isinstance(workers, int) or workers < 2
             or config.args_source is not config.ArgsSource.TESTPATHS or config.option.collectonly):
         return
     t0 = time.perf_counter()
-    children = [subprocess.Popen([sys.executable, "-c", _WARM, __import__("json").dumps(group)],
+    children = [subprocess.Popen([sys.executable, "-c", _WARM, json.dumps(group)],
                                  stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
                 for group in _warm_groups(SUITE_VARIANTS, workers)]
     try:

@@ -375,9 +375,9 @@ def _verify(sweep: SweepData) -> None:
     """Read a point as done only where its checksum matches; give every point not done
     the values of a pending point (a write cut short may have left some of its bytes)."""
     done = sweep.data["done"]  # flags out of range stay as read: check_sweep refuses them
-    if "checksum" not in sweep.data:  # written before checksums: done flags as stored
+    if "checksum" not in sweep.data:  # written before checksums: done flags as stored; the
+        # checksums are set when the sweep is next written (write_sweep seals every done point)
         sweep.data["checksum"] = np.zeros(done.shape, np.uint64)
-        sweep.seal()
         return
     dims = {name: sweep.dims(name) for name in sweep.data}
     good = sweep_checksum.verified(sweep.data, dims, sweep.point_axes, done, sweep.data["checksum"])
