@@ -109,8 +109,8 @@ MUTANTS = (
            ("tests/kernels/test_smith_walk.py",)),
     Mutant("smith-normals-from-d", "vcavity/kernels/smith.py",
            "state, mx, my, mz = distributions.sample_visible_stream(dist_kind, state, -wx, -wy, -wz, lam_v, params)",
-           "mx, my, mz = distributions.sample_normal(dist_kind, next_uniform(state)[1], "
-           "next_uniform(next_uniform(state)[0])[1], params)",
+           "mx, my, mz = distributions.sample_normal(dist_kind, -math.expm1(-standard_exponential(state)[1]), "
+           "-math.expm1(-standard_exponential(standard_exponential(state)[0])[1]), params)",
            "the Smith walk draws facet normals from D(m)(m.n) instead of the visible normals",
            ("tests/kernels/test_smith_walk.py",)),
     Mutant("smith-rehit-height-exponent", "vcavity/kernels/smith.py",

@@ -149,7 +149,7 @@ def test_visible_normals_follow_their_density(name, roughness, theta_deg, phi_de
 # stretched view: mu > sqrt(pi) (half-normal proposal), mu below it (triangle), near 0
 # (grazing), seen from the normal, and from below the horizon (Gamma proposal) at
 # m = -mu from 0.15 to 0.56 (larger m: tests/microfacet/test_beckmann_slope.py, where this
-# grid resolves nothing); GGX through the registry's fallback on two uniforms.
+# grid resolves nothing); GGX's (its disk point by rejection) from above and below the horizon.
 STREAM_CASES = [
     ("beckmann", {"alpha": 0.3}, 45.0, 0.0),  # mu 3.3
     ("beckmann", {"alpha_x": 0.6, "alpha_y": 0.2}, 30.0, 37.0),  # mu 3.5, anisotropic
@@ -162,6 +162,8 @@ STREAM_CASES = [
     ("beckmann", {"alpha_x": 0.8, "alpha_y": 0.4}, 120.0, 37.0),
     ("beckmann", {"alpha": 1.5}, 130.0, 0.0),  # m 0.56
     ("ggx", {"alpha_x": 0.6, "alpha_y": 0.3}, 50.0, 37.0),
+    ("ggx", {"alpha": 0.5}, 85.0, 0.0),
+    ("ggx", {"alpha_x": 0.4, "alpha_y": 0.9}, 125.0, 60.0),
 ]
 
 

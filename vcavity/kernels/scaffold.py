@@ -47,8 +47,8 @@ def source_files() -> list[Path]:
     list of pathlib.Path
     """
     root = Path(__file__).resolve().parent.parent
-    files = [path for sub in ("kernels", "facet", "microfacet", "_numba") for path in sorted((root / sub).glob("*.py"))]
-    return files + [root / name for name in ("sensor/binning.py", "rng.py")]
+    files = [path for sub in ("kernels", "facet", "microfacet", "_numba", "rng") for path in sorted((root / sub).glob("*.py"))]
+    return files + [root / "sensor/binning.py"]
 
 
 def _source_tag() -> int:

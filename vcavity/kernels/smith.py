@@ -33,7 +33,7 @@ from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, b
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED)
 from vcavity.microfacet import registry as distributions
-from vcavity.rng import next_uniform
+from vcavity.rng.ziggurat import standard_exponential
 from vcavity.sensor.binning import bin_block
 
 
@@ -52,8 +52,8 @@ def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, f
     log_c = 0.0
     k = 0
     while True:
-        state, u = next_uniform(state)
-        log_s = math.log(1.0 - u)  # 1 - u is uniform on (0, 1]: finite
+        state, e = standard_exponential(state)
+        log_s = -e  # the log of a uniform on (0, 1], without a log (the ziggurat)
         # lam_v: Lambda of v = -w, the direction the next facet is seen from, which the
         # visible-normal sampler may use (Beckmann's does: C(mu) = mu (1 + Lambda(v)))
         if wz > 0.0:

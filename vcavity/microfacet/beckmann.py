@@ -23,6 +23,7 @@ from vcavity.microfacet.common import (
 )
 from vcavity.parameters import Roughness
 from vcavity.rng import next_uniform
+from vcavity.rng.ziggurat import standard_normal
 from vcavity._numba.jit import njit
 
 NAME = "beckmann"
@@ -34,6 +35,7 @@ _TWO_PI = 2.0 * math.pi
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _LOG_PI = math.log(math.pi)
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1
+_INV_SQRT2 = 1.0 / math.sqrt(2.0)  # a standard normal deviate over sqrt 2 has the density exp(-t^2)/sqrt(pi)
 
 
 #: The smaller alpha as the lobe width.
@@ -285,7 +287,7 @@ def sample_visible_stream(state, vx, vy, vz, lam, params):
     scheme of :func:`vcavity.microfacet.beckmann_visible.sample_slope_along`, whose mixture
     weights need ``C(mu) = mu (1 + Lambda(v))``: the walk has just computed ``Lambda(v)``
     for its height step, so it is passed in and no ``erfc`` is evaluated here. The slope
-    across is a normal quantile of one uniform.
+    across is a normal deviate from the ziggurat (:mod:`vcavity.rng.ziggurat`).
 
     Parameters
     ----------
@@ -310,15 +312,15 @@ def sample_visible_stream(state, vx, vy, vz, lam, params):
     sin_v = math.sqrt(sx * sx + sy * sy)
     if sin_v == 0.0:  # seen from the normal: every normal visible in proportion to D(m)(m.n)
         cos_v, sin_v = 1.0, 0.0
-        state, u = next_uniform(state)
-        x = visible.normal_quantile(u)
+        state, x = standard_normal(state)
+        x *= _INV_SQRT2
     else:
         inv = 1.0 / sin_v
         mu = vz * inv  # cot of the stretched view
         cos_v, sin_v = sx * inv, sy * inv
         state, x = visible.sample_slope_along(state, mu, mu * (1.0 + lam))
-    state, u = next_uniform(state)
-    y = visible.normal_quantile(u)
+    state, y = standard_normal(state)
+    y *= _INV_SQRT2
     mx = -ax * (cos_v * x - sin_v * y)
     my = -ay * (sin_v * x + cos_v * y)
     if abs(mx) < 1e150 and abs(my) < 1e150:

@@ -21,6 +21,7 @@ import math
 
 from vcavity._numba.jit import njit
 from vcavity.rng import next_uniform
+from vcavity.rng.ziggurat import standard_exponential, standard_normal
 
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)
 _HALF_INV_SQRT_PI = 0.5 / math.sqrt(math.pi)
@@ -137,14 +138,17 @@ def sample_slope_along(state, mu, total):
     random stream ``state`` (physics.md sec. 14): the exact alternative to :func:`solve_slope`.
 
     For ``mu > 0`` the density is the mixture of ``mu exp(-x^2)`` on ``x <= 0`` (mass
-    ``mu/2``; a half-normal by :func:`normal_quantile`), ``-x exp(-x^2)`` on ``x <= 0`` (mass
-    ``1/(2 sqrt(pi))``; ``x = -sqrt(-log u)``) and ``(mu - x) exp(-x^2)`` on ``(0, mu]`` (the
+    ``mu/2``; a half-normal), ``-x exp(-x^2)`` on ``x <= 0`` (mass ``1/(2 sqrt(pi))``;
+    ``x = -sqrt(E)``, ``E`` exponential) and ``(mu - x) exp(-x^2)`` on ``(0, mu]`` (the
     rest), the last by rejection: proposed from the triangle ``mu - x`` (``x = mu (1 - sqrt u)``)
     and accepted with ``exp(-x^2)`` when ``mu <= MU_TRIANGLE``, else proposed half-normal and
     accepted with ``(mu - x)/mu``. For ``mu <= 0``, ``x = mu - s`` with ``s >= 0`` of density
-    ``s exp(-(m + s)^2)``, ``m = -mu``: proposed ``Gamma(2, rate l)``, accepted with
-    ``exp(-(s - s*)^2)``, ``s* = l/2 - m``, which bounds the ratio of the two; the rate
-    ``l = m + sqrt(m^2 + 4)`` maximises the acceptance (0.74 at ``m = 0``, rising to 1).
+    ``s exp(-(m + s)^2)``, ``m = -mu``: proposed ``Gamma(2, rate l)`` (the sum of two
+    exponentials over ``l``), accepted with ``exp(-(s - s*)^2)``, ``s* = l/2 - m``, which
+    bounds the ratio of the two; the rate ``l = m + sqrt(m^2 + 4)`` maximises the acceptance
+    (0.74 at ``m = 0``, rising to 1). Normal and exponential deviates come from the ziggurat
+    (:mod:`vcavity.rng.ziggurat`), and an acceptance with probability ``exp(-t)`` is an
+    exponential deviate above ``t``: no ``log``, ``exp`` or normal quantile on the common paths.
 
     The rejection loops have no try counter: with one, LLVM compiles them about ten times
     slower (measured, docs/performance.md). They end with probability 1 (acceptance >= 0.68)
@@ -173,33 +177,34 @@ def sample_slope_along(state, mu, total):
             total = visible_cdf(mu, mu)
         pick = u * total
         half = 0.5 * mu
-        state, u = next_uniform(state)
         if pick < half:
-            return state, normal_quantile(0.5 * u)
+            state, x = standard_normal(state)
+            return state, -abs(x) * _INV_SQRT2
         if pick < half + _HALF_INV_SQRT_PI:
-            return state, -math.sqrt(-math.log(1.0 - u))
+            state, e = standard_exponential(state)
+            return state, -math.sqrt(e)
         if mu <= MU_TRIANGLE:
             while True:
-                state, w = next_uniform(state)
-                x = mu * (1.0 - math.sqrt(u))
-                if w < math.exp(-x * x):
-                    return state, x
                 state, u = next_uniform(state)
+                state, e = standard_exponential(state)
+                x = mu * (1.0 - math.sqrt(u))
+                if e > x * x:  # probability exp(-x^2), without the exp
+                    return state, x
         while True:
+            state, x = standard_normal(state)
+            x = abs(x) * _INV_SQRT2
             state, w = next_uniform(state)
-            x = normal_quantile(0.5 + 0.5 * u)
             if x < mu and w * mu < mu - x:
                 return state, x
-            state, u = next_uniform(state)
     m = -mu
     root = math.sqrt(m * m + 4.0) if m < 1e150 else m
     peak = 2.0 / (root + m)  # s* = l/2 - m, written without cancellation
     rate = 2.0 * (m + peak)
     while True:
-        state, u1 = next_uniform(state)
-        state, u2 = next_uniform(state)
-        state, w = next_uniform(state)
-        s = -math.log((1.0 - u1) * (1.0 - u2)) / rate
+        state, e1 = standard_exponential(state)
+        state, e2 = standard_exponential(state)
+        state, e = standard_exponential(state)
+        s = (e1 + e2) / rate
         d = s - peak
-        if w < math.exp(-d * d) or not d == d:
+        if e > d * d or not d == d:  # kept with probability exp(-d^2)
             return state, mu - s

@@ -57,6 +57,18 @@ def next_uniform(state):
 
 
 @njit(cache=True)
+def next_bits(state):
+    """Advance a stream; return ``(new_state, bits)``, the draw's 64 random bits (uint64).
+
+    The same draw as :func:`next_uniform`, whose ``u`` is the top 53 of these bits: for
+    samplers that use disjoint bits of one draw for several choices
+    (:mod:`vcavity.rng.ziggurat`).
+    """
+    state = np.uint64(state) + GOLDEN
+    return state, mix64(state)
+
+
+@njit(cache=True)
 def block_key(direction_key, block):
     """Stream key of one block of one incident direction (uint64)."""
     return mix64(direction_key ^ mix64(np.uint64(block) + GOLDEN))
