@@ -129,6 +129,10 @@ DEFAULT = [
       "eta": 1.0}, 45.0, 90.0),
     ({"distribution": "beckmann", "alpha_x": 0.8, "alpha_y": 0.4, "facet": "interfaced_lambertian", "kd": 0.9,
       "eta": 1.5}, 70.0, 37.0),
+    # seen from the normal, Lambda(i) = 0, far from the Lambda(-w) of the rough surface's later
+    # downward hits: Beckmann's visible slopes there need the ray's own Lambda (the mixture's
+    # weights), not the first hit's
+    ({"distribution": "beckmann", "alpha": 1.0, "facet": "mirror"}, 0.0, 0.0),
 ]
 SLOW = [
     ({"distribution": "ggx", "alpha_x": 0.2, "alpha_y": 0.9, "facet": "interfaced_lambertian", "kd": 0.0,
