@@ -374,7 +374,8 @@ def run_mutant(mutant: Mutant, quick: bool, keep: bool) -> tuple[str, float, str
         seconds = time.perf_counter() - start
         failed = [line[len("FAILED "):].split(" - ")[0] for line in done.stdout.splitlines()
                   if line.startswith("FAILED ")]
-        if done.returncode == 1:
+        # -x under pytest-xdist (the default -n 2) stops the other worker: exit 2 with failures
+        if done.returncode == 1 or (done.returncode == 2 and failed):
             return "CAUGHT", seconds, failed[0] if failed else "(failures)"
         if done.returncode == 0:
             return "SURVIVED", seconds, ""

@@ -48,7 +48,7 @@ def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, f
     """
     wx, wy, wz = -ix, -iy, -iz
     # log C1 of the current height, C1 the share of the surface below it (0: above all of it);
-    # in logarithms each step costs one log instead of two powers
+    # in logarithms a step costs an exponential deviate (no log) instead of two powers
     log_c = 0.0
     k = 0
     while True:
