@@ -36,7 +36,7 @@ from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import g2_smith_height_correlated, g2_smith_separable
 
 _HALF_PI = 0.5 * math.pi
-#: Start and multiplier of the FNV-1a hash of a ray's states (64-bit, wrapping).
+#: Start and multiplier of the FNV-1a-like hash of a ray's transitions (64-bit, wrapping).
 _HASH_START = 1469598103934665603
 _HASH_PRIME = 1099511628211
 #: Parabolic steps that locate an extremum of ``u`` or ``v`` inside a step.
@@ -126,9 +126,10 @@ def _between(fa, fm, fb):
 @njit(cache=True, inline="always")
 def _state(key, slot_of_cell):
     """The state of a key for the signature: ``8 slot + regime`` in a peak cell, ``-2 - cell``
-    in another cell (its regime does not matter), -1 for no exit. Other cells keep their
-    identity so that a dip into one cell appearing while a dip into another disappears
-    still changes the signature."""
+    in another cell (its regime does not matter), -1 for no exit. The hash takes the
+    transitions into and out of peak cells, with the other cell's identity, so that a dip
+    into one neighbour appearing while a dip into another disappears still changes it,
+    and nothing that happens beyond the peak cells does."""
     if key < 0:
         return np.int64(-1)
     if slot_of_cell[key // 8] < 0:
@@ -140,7 +141,7 @@ def _state(key, slot_of_cell):
 def _walk(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i, resolution,
           slot_of_cell, n_slots, tan_stop, gl_x, gl_w, integrate):
     """Walk one ray ``u2``: its integrals over each peak cell (``slot_of_cell[c] >= 0``; only
-    with ``integrate``) and the hash of the states it passes through (:func:`_state`)."""
+    with ``integrate``) and the hash of its transitions into and out of peak cells (:func:`_state`)."""
     ix, iy, iz = incident[0], incident[1], incident[2]
     out = np.zeros(n_slots)
     step_max = STEP_CELLS / resolution
@@ -196,8 +197,9 @@ def _walk(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fi
                              lambda_i, resolution)[0]
                 following = _state(key, slot_of_cell)
                 if following != state:
+                    if following >= 0 or state >= 0:  # into or out of a peak cell: the rest cannot matter
+                        digest = (digest ^ (state * np.int64(1000003) + following)) * np.int64(_HASH_PRIME)
                     state = following
-                    digest = (digest ^ state) * np.int64(_HASH_PRIME)
             if integrate:
                 _piece(out, key, t0, t_end, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
                        walter_fit, lambda_i, resolution, slot_of_cell, gl_x, gl_w)

@@ -59,9 +59,9 @@ DEFAULT_PEAK_TOLERANCE = 1e-10
 MAX_DEPTH = 24
 MAX_PIECES = 4096
 #: Rays of the scan for the events of :func:`event_breaks`, bisection steps per event
-#: (to ``2^-40 / EVENT_SCAN`` in ``u2``) and rounds of looking between two found events.
-EVENT_SCAN = 1024
-EVENT_BISECTIONS = 40
+#: (to ``2^-32 / EVENT_SCAN`` in ``u2``) and rounds of looking between two found events.
+EVENT_SCAN = 256
+EVENT_BISECTIONS = 32
 MAX_EVENT_ROUNDS = 8
 #: How far inside an interval between corner rays its end rays are scanned (relative).
 EVENT_END = 1e-9
@@ -94,8 +94,8 @@ def azimuth_breaks(model, incident, sensor, cells) -> np.ndarray:
 
 def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN) -> np.ndarray:
     """Sorted ``u2`` in [0, 1) of the tangency events of the rays, and any other change of
-    the states a ray passes through (:func:`vcavity.analytic.peak_rays._walk`) between
-    two rays through cell corners.
+    a ray's transitions into and out of the peak cells (the hash of
+    :func:`vcavity.analytic.peak_rays._walk`) between two rays through cell corners.
 
     Between two events every peak cell's integral is a smooth function of ``u2``; at one
     it is not: a ray through a cell corner (a kink; ``corners``, default
@@ -103,9 +103,9 @@ def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN
     it the ray dips into the next cell along a chord that grows as ``sqrt(u2 - u2_0)``).
     Each interval between corner rays is scanned (its two ends, ``EVENT_END`` of its width
     inside, and the rays of an ``n_scan`` grid within it, never across a corner, so that
-    a tangency next to a corner ray cannot hide behind it); between two rays whose state
-    hashes differ the event is bisected from both sides (the end of the left ray's
-    states and the start of the right one's; what lies between is looked at again). A
+    a tangency next to a corner ray cannot hide behind it); between two rays whose hashes
+    differ the event is bisected from both sides (the end of the left ray's transitions
+    and the start of the right one's; what lies between is looked at again). A
     dip that appears and disappears between two scan rays is missed: two tangencies of
     one smooth fold less than ``1/n_scan`` apart, whose sliver is ``O(w^3)``, negligible.
     """
