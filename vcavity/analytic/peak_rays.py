@@ -156,7 +156,10 @@ def _walk(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fi
         key_b, _, bx, by, bz, tan_b = _point(tb, u2, ix, iy, iz, kind, params, facet_kind, facet_data,
                                              masking, walter_fit, lambda_i, resolution)
         moved = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
-        if moved > step_max and tb - tau > 1e-15:
+        # near the horizon G2 changes on the scale of o_z itself (Smith: Lambda(o) ~ 1/o_z), which
+        # at grazing incidence (o_z = i_z at the ray's start) is far finer than a cell
+        near = max(min(max(az, 0.0), max(bz, 0.0)), iz)
+        if (moved > step_max or abs(bz - az) > near) and tb - tau > 1e-15:
             h = 0.5 * (tb - tau)
             continue
         # cut the step where u or v turns (module docstring): each part is monotone
