@@ -26,9 +26,10 @@ default nodes within 7.4e-7; the full runs file (1e5 paths, 81 cells) within 5.9
 before the exact-f1 peak rule was fixed, the largest differences (mu <= 9/31,
 r >= 14/31) being that model's quadrature error, up to ~300 times its own estimate ``B``
 (a tangency of a ray with a cell edge hidden behind a corner ray; now within ``B`` of the
-independent quadrature, tests/analytic/test_exact_f1_albedo.py). At the grazing row the
-rays' radial rule still errs by up to ~2e-5, beyond ``B`` at tight tolerances: ``B``
-alone would not be a safe tolerance, the table term covers it. Planted bugs: ``alpha = r``
+independent quadrature, tests/analytic/test_exact_f1_albedo.py; the grazing row's
+unresolved layer of G2 near o_z = i_z is fixed too, docs/exports.md). ``B`` alone would
+still not be a safe tolerance against Cycles (its own sampling error): the table term
+covers that. Planted bugs: ``alpha = r``
 instead of ``r^2`` in the runs file, the uncorrelated Smith ``G2`` in the model
 (``F1_MASKING``), the Cycles layout transposed (``albedo_lut.py``'s ``.T`` dropped; slow
 test), the uncorrelated ``G2`` in the reference quadrature: each fails.
