@@ -17,9 +17,18 @@ any roughness down to 1e-300. Each ray ``u2 = const`` (``m`` tilts away from ``n
 points are found by bisection on the sensor's own binning (:func:`vcavity.sensor.binning.direction_to_cell`),
 so the cell a piece belongs to is the cell the simulator counts it in. Each piece is a
 Gauss-Legendre rule in ``τ`` with ``u1 = sin^2(π τ / 2)``, which removes the square-root
-behaviour of ``m`` at both ends of ``u1``. Per cell, the integrand over ``u2`` is smooth
-between the rays through cell corners, so ``u2`` is split there and each piece gets a
-Gauss-Legendre rule.
+behaviour of ``m`` at both ends of ``u1``. (The walk, and why it cuts each step where the square
+coordinates of ``o`` turn: :mod:`vcavity.analytic.peak_rays`.)
+
+Per cell, the integrand over ``u2`` is smooth between the *events* of the rays: a ray
+through a cell corner (a kink) and a ray tangent to a cell edge (beyond it the ray dips
+into the next cell along a chord that grows as ``sqrt(u2 - u2_0)``). ``u2`` is split at
+both (:func:`azimuth_breaks`, :func:`event_breaks`) and each piece gets a Gauss-Legendre
+rule in ``t``, ``u2 = lo + (hi - lo) sin^2(π t / 2)``, smooth at a square-root end. Split
+at the corners alone (before 2026-12), a tangency 4e-4 of ``u2`` short of a corner ray
+fell between the last node of every rule and the piece's end: on the 9 x 9 sensor, GGX
+alpha 0.376 at ``cos θ_i = 9/31``, ``φ_i = 0``, two cells were 3e-5 too high with an
+error estimate of 1e-15 (docs/validation.md).
 
 Only the cells of the peak region (:func:`vcavity.analytic.peak_cells.peak_cells`: the 3 x 3 cells around the mirror
 direction, and for an anisotropic lobe the cells its thin ridge crosses) are integrated this
@@ -32,17 +41,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
-from vcavity._numba.jit import njit
 from vcavity.analytic.peak_cells import corner_u2
-from vcavity.analytic.quadrature import MAX_STEP, STEP_CELLS, subcell_quadrature
-from vcavity.analytic.terms import SMITH, VCAVITY, smith_lambda
-from vcavity.sensor.binning import direction_to_cell, square_to_hemisphere
+from vcavity.analytic.peak_rays import _rays, _signatures
+from vcavity.analytic.quadrature import subcell_quadrature
+from vcavity.sensor.binning import square_to_hemisphere
 from vcavity.sensor.grid import square_to_hemisphere_array
-from vcavity.facet import registry as facets
-from vcavity.microfacet import registry as distributions
-from vcavity.microfacet.common import g2_smith_height_correlated, g2_smith_separable
 
 _HALF_PI = 0.5 * math.pi
 #: Gauss-Legendre nodes per u2 piece and per tau piece (accuracy controls; the error is
@@ -54,126 +58,13 @@ DEFAULT_RADIAL_NODES = 8
 DEFAULT_PEAK_TOLERANCE = 1e-10
 MAX_DEPTH = 24
 MAX_PIECES = 4096
-
-
-@njit(cache=True, inline="always")
-def _point(tau, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i,
-           resolution):
-    """State key and integrand at ``tau`` on the ray ``u2`` (see the module docstring).
-
-    Returns ``(key, value, ox, oy, oz, tan_theta_m)``: ``key`` is ``-1`` where ``o`` is
-    below the horizon or ``i.m <= 0`` (no single-bounce exit), else
-    ``8 cell + regime`` with the V-cavity regime bits (``G1(i) < 1``, ``G1(o) < 1``,
-    ``G1(o) < G1(i)``) marking the kinks of G2 (IL eq. 14). ``value`` is
-    ``F G2 (i.m)/((i.n)(m.n)) du1/dtau``, ``du1/dtau = (π/2) sin(π tau)``.
-    """
-    s = math.sin(_HALF_PI * tau)
-    mx, my, mz = distributions.sample_normal(kind, s * s, u2, params)
-    tan_m = math.sqrt(max(1.0 - mz * mz, 0.0)) / mz if mz > 0.0 else math.inf
-    im = ix * mx + iy * my + iz * mz
-    ox = 2.0 * im * mx - ix
-    oy = 2.0 * im * my - iy
-    oz = 2.0 * im * mz - iz
-    if im <= 0.0 or oz <= 0.0 or mz <= 0.0:
-        return np.int64(-1), 0.0, ox, oy, oz, tan_m
-    cell = direction_to_cell(ox, oy, oz, resolution)
-    if masking == VCAVITY:
-        g1_i = 2.0 * mz * iz / im
-        g1_o = 2.0 * mz * oz / im  # o.m = i.m
-        regime = (1 if g1_i < 1.0 else 0) + (2 if g1_o < 1.0 else 0) + (4 if g1_o < g1_i else 0)
-        g = min(1.0, g1_i, g1_o)
-    else:
-        regime = 0
-        lambda_o = smith_lambda(kind, ox, oy, oz, params, walter_fit)
-        if masking == SMITH:
-            g = g2_smith_separable(lambda_i, lambda_o)
-        else:
-            g = g2_smith_height_correlated(lambda_i, lambda_o)
-    jacobian = _HALF_PI * math.sin(math.pi * tau)
-    value = facets.reflectance(facet_kind, im, facet_data) * g * (im / iz) / mz * jacobian
-    return cell * 8 + regime, value, ox, oy, oz, tan_m
-
-
-@njit(cache=True)
-def _ray(u2, incident, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i, resolution,
-         slot_of_cell, n_slots, tan_stop, gl_x, gl_w):
-    """Integrals of one ray ``u2`` over each peak cell (``slot_of_cell[c] >= 0``)."""
-    ix, iy, iz = incident[0], incident[1], incident[2]
-    out = np.zeros(n_slots)
-    step_max = STEP_CELLS / resolution
-    tau = 0.0
-    key_a, _, ax, ay, az, _ = _point(0.0, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
-                                     walter_fit, lambda_i, resolution)
-    h = MAX_STEP
-    while tau < 1.0:
-        tb = min(tau + h, 1.0)
-        key_b, _, bx, by, bz, tan_b = _point(tb, u2, ix, iy, iz, kind, params, facet_kind, facet_data,
-                                             masking, walter_fit, lambda_i, resolution)
-        moved = math.sqrt((bx - ax) ** 2 + (by - ay) ** 2 + (bz - az) ** 2)
-        if moved > step_max and tb - tau > 1e-15:
-            h = 0.5 * (tb - tau)
-            continue
-        # cut [tau, tb] where the state changes (each change bracketed, then bisected)
-        t0 = tau
-        key = key_a
-        for _ in range(64):  # at most a few changes per step; the bound keeps it finite
-            if key == key_b:
-                break
-            lo, hi = t0, tb
-            while True:
-                mid = 0.5 * (lo + hi)
-                if mid <= lo or mid >= hi:
-                    break
-                key_mid = _point(mid, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
-                                 walter_fit, lambda_i, resolution)[0]
-                if key_mid == key:
-                    lo = mid
-                else:
-                    hi = mid
-            _piece(out, key, t0, hi, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
-                   walter_fit, lambda_i, resolution, slot_of_cell, gl_x, gl_w)
-            t0 = hi
-            key = _point(hi, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, walter_fit,
-                         lambda_i, resolution)[0]
-        _piece(out, key, t0, tb, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking,
-               walter_fit, lambda_i, resolution, slot_of_cell, gl_x, gl_w)
-        tau, key_a, ax, ay, az = tb, key_b, bx, by, bz
-        if tan_b > tan_stop:  # beyond every peak cell (tan theta_m grows along the ray)
-            break
-        h = min(2.0 * h, MAX_STEP)
-    return out
-
-
-@njit(cache=True, inline="always")
-def _piece(out, key, t0, t1, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, walter_fit,
-           lambda_i, resolution, slot_of_cell, gl_x, gl_w):
-    """Add the Gauss-Legendre integral over ``[t0, t1]`` of a piece of state ``key``."""
-    if key < 0 or t1 <= t0:
-        return
-    slot = slot_of_cell[key // 8]
-    if slot < 0:
-        return
-    half = 0.5 * (t1 - t0)
-    centre = 0.5 * (t1 + t0)
-    acc = 0.0
-    for j in range(gl_x.shape[0]):
-        acc += gl_w[j] * _point(centre + half * gl_x[j], u2, ix, iy, iz, kind, params, facet_kind,
-                                facet_data, masking, walter_fit, lambda_i, resolution)[1]
-    out[slot] += half * acc
-
-
-@njit(cache=True, parallel=True)
-def _rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
-          resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w):
-    """``w_k ray(u2_k)`` per node ``k`` and peak cell."""
-    lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, incident[0], incident[1], incident[2],
-                                                           params, walter_fit)
-    per_ray = np.zeros((u2_nodes.shape[0], n_slots))
-    for k in prange(u2_nodes.shape[0]):
-        per_ray[k] = u2_weights[k] * _ray(u2_nodes[k], incident, kind, params, facet_kind, facet_data,
-                                          masking, walter_fit, lambda_i, resolution, slot_of_cell,
-                                          n_slots, tan_stop, gl_x, gl_w)
-    return per_ray
+#: Rays of the scan for the events of :func:`event_breaks`, bisection steps per event
+#: (to ``2^-32 / EVENT_SCAN`` in ``u2``) and rounds of looking between two found events.
+EVENT_SCAN = 256
+EVENT_BISECTIONS = 32
+MAX_EVENT_ROUNDS = 8
+#: How far inside an interval between corner rays its end rays are scanned (relative).
+EVENT_END = 1e-9
 
 
 def _corners(cells, n):
@@ -199,6 +90,75 @@ def azimuth_breaks(model, incident, sensor, cells) -> np.ndarray:
             breaks.append(value)
     breaks = np.unique(np.asarray(breaks))
     return breaks
+
+
+def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN) -> np.ndarray:
+    """Sorted ``u2`` in [0, 1) of the tangency events of the rays, and any other change of
+    a ray's transitions into and out of the peak cells (the hash of
+    :func:`vcavity.analytic.peak_rays._walk`) between two rays through cell corners.
+
+    Between two events every peak cell's integral is a smooth function of ``u2``; at one
+    it is not: a ray through a cell corner (a kink; ``corners``, default
+    :func:`azimuth_breaks`) and a ray tangent to a cell edge (a square-root change: beyond
+    it the ray dips into the next cell along a chord that grows as ``sqrt(u2 - u2_0)``).
+    Each interval between corner rays is scanned (its two ends, ``EVENT_END`` of its width
+    inside, and the rays of an ``n_scan`` grid within it, never across a corner, so that
+    a tangency next to a corner ray cannot hide behind it); between two rays whose hashes
+    differ the event is bisected from both sides (the end of the left ray's transitions
+    and the start of the right one's; what lies between is looked at again). A
+    dip that appears and disappears between two scan rays is missed: two tangencies of
+    one smooth fold less than ``1/n_scan`` apart, whose sliver is ``O(w^3)``, negligible.
+    """
+    incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
+    cells = np.asarray(cells, dtype=np.int64)
+    slot_of_cell = np.full(sensor.n_cells, -1, dtype=np.int64)
+    slot_of_cell[cells] = np.arange(cells.size)
+    tan_stop = _tan_stop(incident, sensor, cells)
+    gl_x, gl_w = np.polynomial.legendre.leggauss(2)  # unused by the walk when it does not integrate
+
+    def sign(u2):
+        return _signatures(np.ascontiguousarray(np.asarray(u2, dtype=np.float64) % 1.0), incident, model.kind,
+                           model.params, model.facet_kind, model.facet_data, model.masking_code,
+                           model.lambda_fit, sensor.resolution, slot_of_cell, tan_stop, gl_x, gl_w)
+
+    corners = azimuth_breaks(model, incident, sensor, cells) if corners is None else np.asarray(corners)
+    ends = np.append(corners, corners[0] + 1.0)
+    grid = (np.arange(n_scan) + 0.5) / n_scan
+    a_list, b_list = [], []
+    for lo, hi in zip(ends[:-1], ends[1:]):
+        if hi - lo <= 1e-15:
+            continue
+        inside = grid[(grid > lo) & (grid < hi)] if hi <= 1.0 else np.concatenate(
+            [grid[grid > lo], grid[grid < hi - 1.0] + 1.0])
+        points = np.concatenate([[lo + EVENT_END * (hi - lo)], inside, [hi - EVENT_END * (hi - lo)]])
+        a_list.append(points[:-1])
+        b_list.append(points[1:])
+    a, b = np.concatenate(a_list), np.concatenate(b_list)
+    signature = sign(np.concatenate([a, b]))
+    sa, sb = signature[:a.size], signature[a.size:]
+    differ = sa != sb
+    a, b, sa, sb = a[differ], b[differ], sa[differ], sb[differ]
+    breaks = []
+    for _ in range(MAX_EVENT_ROUNDS):
+        if a.size == 0:
+            break
+        # bisect both ends at once: [lo, hi] brackets the end of the left state, [lo2, hi2] the start of the right
+        lo, hi, lo2, hi2 = a.copy(), b.copy(), a.copy(), b.copy()
+        for _ in range(EVENT_BISECTIONS):
+            mid, mid2 = 0.5 * (lo + hi), 0.5 * (lo2 + hi2)
+            s = sign(np.concatenate([mid, mid2]))
+            left, right = s[:mid.size] == sa, s[mid.size:] == sb
+            lo, hi = np.where(left, mid, lo), np.where(left, hi, mid)
+            lo2, hi2 = np.where(right, lo2, mid2), np.where(right, mid2, hi2)
+        breaks.extend((0.5 * (lo + hi)).tolist())
+        breaks.extend((0.5 * (lo2 + hi2)).tolist())
+        gap = hi < lo2  # states other than the two ends lie between them: look there
+        a, b = hi[gap], lo2[gap]
+        s = sign(np.concatenate([a, b])) if a.size else np.zeros(0, dtype=np.int64)
+        sa, sb = s[:a.size], s[a.size:]
+        differ = sa != sb
+        a, b, sa, sb = a[differ], b[differ], sa[differ], sb[differ]
+    return np.unique(np.asarray(breaks, dtype=np.float64) % 1.0)
 
 
 def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NODES,
@@ -249,17 +209,21 @@ def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NOD
     x, w = np.polynomial.legendre.leggauss(int(n_azimuth))
 
     def pieces(lo, hi, n_radial):
-        """Integral over each piece [lo_k, hi_k] of u2, shape (pieces, cells)."""
-        half = 0.5 * (hi - lo)[:, None]
-        nodes = (0.5 * (hi + lo)[:, None] + half * x[None, :]) % 1.0
-        weights = half * w[None, :]
+        """Integral over each piece [lo_k, hi_k] of u2, shape (pieces, cells): Gauss-Legendre
+        in ``t`` with ``u2 = lo + (hi - lo) sin^2(π t / 2)``, which makes the square-root
+        change at a tangency event (:func:`event_breaks`) at either end of a piece smooth."""
+        t = 0.5 * (x + 1.0)
+        width = (hi - lo)[:, None]
+        nodes = (lo[:, None] + width * np.sin(_HALF_PI * t)[None, :] ** 2) % 1.0
+        weights = width * (0.5 * w * _HALF_PI * np.sin(math.pi * t))[None, :]
         gl_x, gl_w = np.polynomial.legendre.leggauss(int(n_radial))
         per_node = _rays(np.ascontiguousarray(nodes.ravel()), np.ascontiguousarray(weights.ravel()), incident,
                          model.kind, model.params, model.facet_kind, model.facet_data, model.masking_code,
                          model.lambda_fit, sensor.resolution, slot_of_cell, cells.size, tan_stop, gl_x, gl_w)
         return per_node.reshape(lo.size, x.size, cells.size).sum(axis=1)
 
-    breaks = azimuth_breaks(model, incident, sensor, cells)
+    corners = azimuth_breaks(model, incident, sensor, cells)
+    breaks = np.union1d(corners, event_breaks(model, incident, sensor, cells, corners))
     ends = np.append(breaks, breaks[0] + 1.0)
     lo, hi = ends[:-1], ends[1:]
     keep = hi - lo > 1e-15
