@@ -99,6 +99,9 @@ def check_output(out: Output, config_file: str | None, overwrite: bool, source: 
         One line naming ``out.field``.
     """
     path = out.path
+    if out.shown == "-":  # what many tools read as standard output: never a file named '-' by surprise
+        raise out.fail("is not standard output here: vcavity writes files only; give a file name "
+                       "(./- for a file named '-')")
     try:
         info = path.lstat()
     except FileNotFoundError:
