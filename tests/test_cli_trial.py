@@ -45,3 +45,29 @@ def test_dash_is_not_a_file_named_dash(tmp_path, capsys, monkeypatch, command):
     field = {"run": "--output", "sweep": "--output", "export": "FILE"}[command]
     assert line.startswith(f"vcavity: error: {field} = '-': is not standard output here"), line
     assert not (tmp_path / "-").exists()
+
+
+@pytest.mark.parametrize("command", ["info", "compare", "plot"])
+def test_the_missing_input_is_called_a_table(capsys, command):
+    """``vcavity info`` without its argument asked for 'OUT.h5', an output, for what it reads."""
+    with pytest.raises(SystemExit) as exited:  # argparse's own error exits
+        main([command])
+    line = _one_line_error(capsys, exited.value.code)
+    assert "TABLE.h5" in line and "OUT.h5" not in line, line
+
+
+def test_a_sweep_interrupted_before_its_first_point_says_nothing_was_written(tmp_path, capsys, monkeypatch):
+    """It said '0 of 2 point(s) are in s.h5' of a file that does not exist."""
+    import vcavity.sweep.run as sweep_run
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_run, "run", interrupted)
+    (tmp_path / "s.toml").write_text(SWEEP)
+    out = tmp_path / "s.h5"
+    assert main(["sweep", str(tmp_path / "s.toml"), "-o", str(out), "-q"]) == 130
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[-1] == (f"vcavity: interrupted; no point finished, nothing written to {out} "
+                         f"(continue with: vcavity sweep {tmp_path / 's.toml'} -o {out} --resume)")
+    assert not out.exists()
