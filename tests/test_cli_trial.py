@@ -71,3 +71,31 @@ def test_a_sweep_interrupted_before_its_first_point_says_nothing_was_written(tmp
     assert lines[-1] == (f"vcavity: interrupted; no point finished, nothing written to {out} "
                          f"(continue with: vcavity sweep {tmp_path / 's.toml'} -o {out} --resume)")
     assert not out.exists()
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_a_device_as_config_is_refused_not_read_forever(command):
+    """``vcavity run /dev/zero`` read zeros until memory ran out (killed after 20 s in the trial)."""
+    import os
+    import subprocess
+    import sys
+
+    if not os.path.exists("/dev/zero"):
+        pytest.skip("no /dev/zero here")
+    done = subprocess.run([sys.executable, "-m", "vcavity.cli", command, "/dev/zero", "-q"], capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2 and done.stdout == ""
+    what = "config file" if command == "run" else "sweep file"
+    assert done.stderr.splitlines() == [f"vcavity: error: {what} '/dev/zero': is a character device; a TOML file "
+                                        "(or a pipe) is expected"]
+
+
+@pytest.mark.parametrize("command", ["run", "sweep"])
+def test_a_config_over_1_mib_is_refused(tmp_path, capsys, command):
+    """Read whole before: 2 MiB of comments parsed as an empty config ('material is missing')."""
+    big = tmp_path / "big.toml"
+    big.write_text(SWEEP + ("# padding\n" * (1 << 18))[: 2 << 20])
+    line = _one_line_error(capsys, main([command, str(big), "-o", str(tmp_path / "o.h5"), "-q"]))
+    what = "config file" if command == "run" else "sweep file"
+    assert line == f"vcavity: error: {what} {str(big)!r}: larger than 1 MiB; not a TOML config"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["big.toml"]
