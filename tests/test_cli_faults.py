@@ -393,9 +393,11 @@ def test_not_enough_disk_or_memory_is_refused_with_the_figures(box, capsys, monk
                        "1.02 MB (uncompressed bound), only 0.000954 MB free in '.'", before, box)
     with monkeypatch.context() as patch:
         patch.setattr(preflight, "available_memory", lambda: 1000)
-        # writing dominates: 11 arrays x 8 bytes x 2 directions x 4 orders x 81 cells = 57024 bytes
+        # writing dominates: 11 arrays x 8 bytes x 2 directions x 4 orders x 81 cells = 57024 bytes,
+        # plus the HDF5 image twice, each at most 8 x (3 x 2 x 4 x 81 + 8 x 81) + 2^20 = 1069312
+        # bytes: 2195648 bytes = 2.09 MiB
         assert_refused(_run_over_old(["--threads", "1"]), capsys.readouterr(),
-                       "simulation.sensor_resolution = 9 with max_order = 3: the run needs about 0.0544 MB "
+                       "simulation.sensor_resolution = 9 with max_order = 3: the run needs about 2.09 MB "
                        "of memory (1 thread(s) x 4 orders x 81 cells per tally, 2 direction(s)), 0.000954 MB "
                        "available", before, box)
 

@@ -465,21 +465,56 @@ def _whole(value: Any) -> Any:
     return value
 
 
+#: The largest config or sweep file read (bytes): far above any real one (a 1000-value
+#: axis is ~10 kB), so that ``/dev/zero`` or ``<(yes)`` is refused instead of read forever.
+MAX_CONFIG_BYTES = 1 << 20
+
+
+def read_toml_text(path: Path, what: str = "config file") -> str:
+    """The text of a TOML file the user named: a regular file or a pipe (``<(cat c.toml)``).
+
+    Raises
+    ------
+    ValueError
+        One line naming ``what`` and the path: unreadable, a device, a folder or a socket,
+        larger than :data:`MAX_CONFIG_BYTES`, or not UTF-8.
+    """
+    import os
+    import stat
+
+    shown = f"{what} {str(path)!r}"
+    try:
+        with open(path, "rb") as handle:
+            mode = os.fstat(handle.fileno()).st_mode
+            if not (stat.S_ISREG(mode) or stat.S_ISFIFO(mode)):
+                kind = "a character device" if stat.S_ISCHR(mode) else "a block device" if stat.S_ISBLK(mode) \
+                    else "a socket" if stat.S_ISSOCK(mode) else "not a regular file"
+                raise ValueError(f"{shown}: is {kind}; a TOML file (or a pipe) is expected")
+            data = handle.read(MAX_CONFIG_BYTES + 1)
+    except OSError as exc:
+        raise ValueError(f"{shown}: cannot read it ({exc.strerror or exc})") from None
+    if len(data) > MAX_CONFIG_BYTES:
+        raise ValueError(f"{shown}: larger than {MAX_CONFIG_BYTES // (1 << 20)} MiB; not a TOML config")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError:
+        raise ValueError(f"{shown}: not UTF-8 text; a TOML file is expected") from None
+
+
 def load(path: str | Path) -> RunConfig:
     """Read and validate a TOML run config.
 
     Raises
     ------
     ConfigError
-        Unreadable file, TOML syntax error (with line), or invalid content.
+        Unreadable file (or a device, or over :data:`MAX_CONFIG_BYTES`), TOML syntax error
+        (with line), or invalid content.
     """
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise ConfigError(f"config file {str(path)!r}: cannot read it ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise ConfigError(f"config file {str(path)!r}: not UTF-8 text; a TOML file is expected") from None
+        text = read_toml_text(path)
+    except ValueError as exc:
+        raise ConfigError(str(exc)) from None
     try:
         raw = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:

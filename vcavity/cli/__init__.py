@@ -116,6 +116,65 @@ def _late_interrupt(signum, frame) -> None:
     os._exit(EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED)
 
 
+class PipeSafe:
+    """A text stream (stdout, stderr) whose reader may go away: ``vcavity info T.h5 | head -1``.
+
+    When the reader has closed the pipe, writing raises ``BrokenPipeError`` (Python ignores
+    SIGPIPE). Our output there is information only, never the result: the first broken
+    write points the stream's file descriptor at ``os.devnull`` (what Python's docs advise
+    for SIGPIPE) and everything after it is dropped silently, so the command carries on,
+    a run writes its table, and the exit status is the command's own (0 once its work is
+    done; ``compare`` its verdict), not 141: the reader chose to stop reading, which is no
+    failure of the command (``set -o pipefail`` scripts piping into ``head`` stay green).
+
+    Parameters
+    ----------
+    stream : io.TextIOWrapper
+        The stream to guard (``sys.stdout`` or ``sys.stderr``).
+    """
+
+    def __init__(self, stream):
+        self._stream = stream
+        self.broken = False
+
+    def write(self, text):
+        try:
+            return self._stream.write(text)
+        except BrokenPipeError:
+            self._divert()
+            return len(text)
+
+    def flush(self):
+        try:
+            self._stream.flush()
+        except BrokenPipeError:
+            self._divert()
+            self._stream.flush()  # what was buffered goes to devnull now
+
+    def _divert(self):
+        self.broken = True
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        try:
+            os.dup2(devnull, self._stream.fileno())
+        finally:
+            os.close(devnull)
+
+    def __getattr__(self, name):
+        return getattr(self._stream, name)
+
+
+def _guard_streams() -> None:
+    """Put :class:`PipeSafe` around ``sys.stdout`` and ``sys.stderr`` (real files only)."""
+    for name in ("stdout", "stderr"):
+        stream = getattr(sys, name)
+        try:
+            stream.fileno()
+        except (AttributeError, OSError, ValueError):  # closed (None) or not a file: nothing to guard
+            continue
+        if not isinstance(stream, PipeSafe):
+            setattr(sys, name, PipeSafe(stream))
+
+
 def console_main() -> None:
     """The ``vcavity`` console script and ``python -m vcavity``: :func:`main`, then exit.
 
@@ -126,17 +185,18 @@ def console_main() -> None:
     ours is pending: tables, checkpoints and temporary files were settled before
     :func:`main` returned.
     """
+    _guard_streams()
     status = main()
     # From here on the outcome is settled: a late Ctrl-C or SIGTERM (while Dask's cluster
     # or the interpreter shuts down) ends the process at once with the same one line.
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, _late_interrupt)
+    for stream in (sys.stdout, sys.stderr):  # before the interpreter's teardown, which
+        try:                                  # would report a broken pipe as "Exception ignored"
+            stream.flush()
+        except (OSError, ValueError, AttributeError):  # closed or None: nothing more can be said
+            pass
     if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
-        for stream in (sys.stdout, sys.stderr):
-            try:
-                stream.flush()
-            except (OSError, ValueError):  # a closed pipe: nothing more can be said
-                pass
         os._exit(status)
     sys.exit(status)
 

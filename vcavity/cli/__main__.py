@@ -1,7 +1,5 @@
 """``python -m vcavity.cli ...`` is the same as the ``vcavity`` console script."""
 
-import sys
+from vcavity.cli import console_main
 
-from vcavity.cli import main
-
-sys.exit(main())
+console_main()

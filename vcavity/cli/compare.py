@@ -33,7 +33,7 @@ def add_parser(subparsers) -> None:
         "when that test passes for every incident direction (Sidak-corrected), 1 when it fails, "
         "2 for bad input (not a table, missing dataset or order, model not applicable).")
     compare.set_defaults(handler=command)
-    compare.add_argument("table", metavar="OUT.h5")
+    compare.add_argument("table", metavar="TABLE.h5")
     compare.add_argument("--model", default=None, choices=("vcavity", "smith", "smith-hc", "oren-nayar"),
                          help="model for albedo and L1: single-bounce with V-cavity, Smith separable or "
                          "height-correlated G2 (vs f1), or Oren-Nayar (vs f1 + f2; gaussian, eta = 1). "
@@ -68,7 +68,7 @@ def _order_arg(text: str) -> int:
 
 
 def command(args: argparse.Namespace) -> int:
-    """``vcavity compare OUT.h5 [--model M] [--plots DIR] ...``: print the report.
+    """``vcavity compare TABLE.h5 [--model M] [--plots DIR] ...``: print the report.
 
     Returns
     -------

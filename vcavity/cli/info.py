@@ -18,11 +18,11 @@ def add_parser(subparsers) -> None:
         NAME, help="print a human summary of a table",
         description="Print the material, budget, albedo per order, absorbed and truncated energy of a table.")
     info.set_defaults(handler=command)
-    info.add_argument("table", metavar="OUT.h5")
+    info.add_argument("table", metavar="TABLE.h5")
 
 
 def command(args: argparse.Namespace) -> int:
-    """``vcavity info OUT.h5``: the summary of a table, a sweep file or a checkpoint.
+    """``vcavity info TABLE.h5``: the summary of a table, a sweep file or a checkpoint.
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """

@@ -58,7 +58,7 @@ def add_parser(subparsers) -> None:
         "error with exit status 2, reported before anything is computed; the image is written atomically.",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     plot.set_defaults(handler=command)
-    plot.add_argument("table", metavar="OUT.h5", nargs="+", help="a table written by vcavity run, or a "
+    plot.add_argument("table", metavar="TABLE.h5", nargs="+", help="a table written by vcavity run, or a "
                       "sweep file written by vcavity sweep; two tables for --kind versus")
     plot.add_argument("--kind", metavar="KIND",
                       help="slice (default for a table), map, albedo; sweep (default for a sweep file); "
@@ -87,7 +87,7 @@ def add_parser(subparsers) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
-    """``vcavity plot OUT.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file.
+    """``vcavity plot TABLE.h5 [--kind KIND] [-o FILE] ...``: a table or a sweep file.
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """

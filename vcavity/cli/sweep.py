@@ -117,8 +117,10 @@ def command(args: argparse.Namespace) -> int:
     try:
         return _trace(args, spec, output, data, executor, total)
     except KeyboardInterrupt:
-        print(f"vcavity: interrupted; {data.n_done()} of {n_points} point(s) are in {output.path} "
-              f"(continue with: vcavity sweep {args.sweep} -o {output.path} --resume)", file=sys.stderr)
+        kept = (f"{data.n_done()} of {n_points} point(s) are in {output.path}" if output.path.exists()
+                else f"no point finished, nothing written to {output.path}")
+        print(f"vcavity: interrupted; {kept} (continue with: vcavity sweep {args.sweep} -o {output.path} --resume)",
+              file=sys.stderr)
         return EXIT_INTERRUPTED
     finally:
         if executor is not None:

@@ -99,6 +99,9 @@ def check_output(out: Output, config_file: str | None, overwrite: bool, source: 
         One line naming ``out.field``.
     """
     path = out.path
+    if out.shown == "-":  # what many tools read as standard output: never a file named '-' by surprise
+        raise out.fail("is not standard output here: vcavity writes files only; give a file name "
+                       "(./- for a file named '-')")
     try:
         info = path.lstat()
     except FileNotFoundError:
@@ -195,11 +198,13 @@ def run_memory_bytes(n_incidence: int, n_orders: int, max_order: int, n_cells: i
     While tracing: per thread slot and the running sum, ``tallies`` (1; paper: 3) arrays
     of (max_order + 1, cells) (kernels/trace.py), plus the result's ``counts``, ``brdf``,
     ``brdf_stderr`` (incidence, order, cell). While writing: those three plus about eight
-    more of that shape (writer.py: float copies, the stderr expression's temporaries).
+    more of that shape (writer.py: float copies, the stderr expression's temporaries), and
+    the table's HDF5 image twice: the ``core`` driver's file in memory and the bytes copy
+    that is written out (io/atomic.py ``write_hdf5``), each at most :func:`table_bytes`.
     """
     per_table_array = 8 * n_incidence * n_orders * n_cells
     tracing = 8 * tallies * (threads + 2) * (max_order + 1) * n_cells + 3 * per_table_array
-    writing = 11 * per_table_array
+    writing = 11 * per_table_array + 2 * table_bytes(n_incidence, n_orders, n_cells)
     return max(tracing, writing)
 
 

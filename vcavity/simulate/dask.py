@@ -11,13 +11,25 @@ simply computed again (Dask reschedules it; ``retries`` covers errors on the way
 Each worker process builds the :class:`~vcavity.simulate.pipeline.Simulation` of a configuration
 once (its kernel compiled or loaded from the worker's Numba cache) and keeps it for the
 next units of the same run.
+
+Interrupts and shutdown: the worker processes of ``local:N`` start with SIGINT and
+SIGTERM blocked (:func:`_signals_blocked`), so a Ctrl-C in a terminal, which reaches
+the whole process group, stops only this process, which saves its checkpoint and shuts
+the cluster down itself (its nanny ends each worker with a stop message, else SIGKILL);
+and while the executor cancels tasks and shuts down, Dask's loggers here and in the
+local workers are quiet (:func:`quiet_logs`): a worker whose task is cancelled, a
+scheduler losing a worker it closes, are not news to the user.
 """
 
 from __future__ import annotations
 
 import collections
+import contextlib
 import json
+import logging
 import os
+import signal
+import threading
 
 #: per worker process: serialised run config -> Simulation
 _SIMULATIONS: dict[str, object] = {}
@@ -36,6 +48,67 @@ def _execute_remote(config_json: str, threads: int, unit):
         _SIMULATIONS.clear()  # one run at a time per worker: free the previous kernel's state
         _SIMULATIONS[config_json] = simulation
     return simulation.execute(unit)
+
+
+#: the loggers quieted while an executor shuts down (a prefix of the logger's name)
+_NOISY_LOGGERS = ("distributed", "tornado", "asyncio")
+
+
+@contextlib.contextmanager
+def quiet_logs():
+    """Dask's loggers in this process say nothing inside the block (restored after it).
+
+    Each existing logger named ``distributed...`` (and tornado's, asyncio's) is disabled:
+    a disabled logger drops the records logged to it before any handler or propagation
+    sees them, whatever logging the user configured; loggers outside these names, and
+    these ones after the block, are untouched.
+    """
+    manager = logging.Logger.manager
+    loggers = [logging.getLogger(name) for name in list(manager.loggerDict)
+               if name.split(".", 1)[0] in _NOISY_LOGGERS]
+    loggers += [logging.getLogger(name) for name in _NOISY_LOGGERS]
+    previous = [(logger, logger.disabled) for logger in loggers]
+    for logger in loggers:
+        logger.disabled = True
+    try:
+        yield
+    finally:
+        for logger, disabled in previous:
+            logger.disabled = disabled
+
+
+def _quiet_worker() -> None:
+    """On a local worker about to be cancelled and closed: its Dask loggers say nothing
+    more (run by ``client.run``; the process ends with the cluster, nothing to restore)."""
+    for name in list(logging.Logger.manager.loggerDict) + list(_NOISY_LOGGERS):
+        if name.split(".", 1)[0] in _NOISY_LOGGERS:
+            logging.getLogger(name).disabled = True
+
+
+@contextlib.contextmanager
+def _signals_blocked():
+    """SIGINT and SIGTERM blocked in this thread inside the block (main thread only).
+
+    Threads started meanwhile (the local cluster's event loop, its process watchers)
+    inherit the blocked mask, and so do the worker processes they spawn, then or later
+    (a blocked signal stays blocked across fork and exec): a Ctrl-C to the process group
+    reaches this process only. A signal that arrives inside the block is not lost: it is
+    delivered when the block ends.
+    """
+    if threading.current_thread() is not threading.main_thread() or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    # multiprocessing's resource tracker, when it starts, unblocks SIGINT and SIGTERM in
+    # the thread that starts it (it blocks them around its own spawn, then unblocks, not
+    # restores): started here first, it is not started again by the cluster's event loop
+    from multiprocessing import resource_tracker
+
+    resource_tracker.ensure_running()
+    previous = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT, signal.SIGTERM})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, previous)
 
 
 def _cores() -> int:
@@ -98,14 +171,28 @@ class DaskExecutor:
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - depends on the installation
             raise ImportError("--dask needs dask.distributed: pip install 'vcavity[distributed]'") from exc
+        from vcavity.simulate.interrupts import DeferredInterrupt
+
         where, n_workers = parse_address(address)
-        self.cluster = None
+        self.cluster = self.client = None
         if where == "local":
-            self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                        dashboard_address=None, env={"NUMBA_NUM_THREADS": str(threads_per_task)})
-            self.client = Client(self.cluster)
+            # a Ctrl-C while the cluster starts waits for it (seconds), then closes it again:
+            # a cluster left half started would leave its processes and semaphores behind
+            with DeferredInterrupt() as interrupt:
+                try:
+                    with _signals_blocked():
+                        self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
+                                                    dashboard_address=None,
+                                                    env={"NUMBA_NUM_THREADS": str(threads_per_task)})
+                        self.client = Client(self.cluster)
+                except BaseException:
+                    self.close()
+                    raise
+            if interrupt.requested:
+                self.close()
+                raise KeyboardInterrupt
         else:
-            self.client = Client(where)
+            self.client = Client(where)  # a Ctrl-C while connecting (up to 30 s) stops at once
         self.threads_per_task = int(threads_per_task)
         workers = max(1, sum(self.client.nthreads().values()))
         self.in_flight = int(in_flight) if in_flight else 4 * workers
@@ -136,17 +223,38 @@ class DaskExecutor:
         finally:  # a stop between units: cancel what is still queued or running
             pending = [f for _, f in window if not f.done()]
             if pending:
-                self.client.cancel(pending)
+                with quiet_logs():
+                    self._quiet_workers()
+                    self.client.cancel(pending)
 
     def worker_pids(self) -> dict:
         """Worker address -> process id (for tests and diagnostics)."""
         return self.client.run(os.getpid)
 
+    def _quiet_workers(self) -> None:
+        """A local cluster's workers log nothing more (they write to this terminal);
+        a remote cluster's workers log where their operator reads, and are left alone."""
+        if self.cluster is not None and self.client is not None:
+            with contextlib.suppress(Exception):  # a worker already gone has nothing to say
+                self.client.run(_quiet_worker)
+
     def close(self) -> None:
-        """Shut the client (and a local cluster) down."""
-        self.client.close()
-        if self.cluster is not None:
-            self.cluster.close()
+        """Shut the client (and a local cluster) down, Dask's loggers quiet meanwhile.
+
+        A Ctrl-C (or SIGTERM) meanwhile lets the shutdown finish and is then remembered as
+        pending (:func:`vcavity.simulate.interrupts.raise_if_pending`), for the command to
+        report with what it has written: the shutdown is never left half done.
+        """
+        from vcavity.simulate import interrupts
+
+        with interrupts.DeferredInterrupt() as interrupt, quiet_logs():
+            self._quiet_workers()
+            if self.client is not None:
+                self.client.close()
+            if self.cluster is not None:
+                self.cluster.close()
+        if interrupt.requested:
+            interrupts.remember()
 
     def __enter__(self):
         return self

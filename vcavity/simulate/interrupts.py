@@ -82,6 +82,13 @@ def raise_if_pending() -> None:
         raise KeyboardInterrupt
 
 
+def remember() -> None:
+    """Record an interrupt that a :class:`DeferredInterrupt` caught where nothing polls it
+    (e.g. while a cluster shuts down): :func:`raise_if_pending` then raises it."""
+    global _pending
+    _pending = True
+
+
 def pending() -> bool:
     """Whether a SIGINT arrived under the main handler."""
     return _pending

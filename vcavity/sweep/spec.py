@@ -385,13 +385,15 @@ def load(path: str | Path, overrides: dict | None = None) -> Sweep:
     SweepError
         Unreadable file, TOML syntax error, or invalid content (one line).
     """
+    from vcavity.config import read_toml_text
+
     path = Path(path)
     try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise SweepError(f"sweep file {str(path)!r}: cannot read it ({exc.strerror or exc})") from None
-    except UnicodeDecodeError:
-        raise SweepError(f"sweep file {str(path)!r}: not UTF-8 text; a TOML file is expected") from None
+        raw = tomllib.loads(read_toml_text(path, "sweep file"))
+    except ValueError as exc:
+        if not isinstance(exc, tomllib.TOMLDecodeError):
+            raise SweepError(str(exc)) from None
+        raise SweepError(f"sweep file {str(path)!r}: invalid TOML: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise SweepError(f"sweep file {str(path)!r}: invalid TOML: {exc}") from None
     return parse(raw, source=str(path), base_dir=path.parent, overrides=overrides)
