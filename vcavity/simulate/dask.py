@@ -181,8 +181,13 @@ class DaskExecutor:
             with DeferredInterrupt() as interrupt:
                 try:
                     with _signals_blocked():
+                        # no dashboard; the scheduler's HTTP server (health, metrics) still
+                        # starts, by default on port 8787: on a free local port instead, so two
+                        # runs at once do not print distributed's "Port 8787 is already in use"
                         self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
                                                     dashboard_address=None,
+                                                    scheduler_kwargs={"dashboard": False,
+                                                                      "dashboard_address": "127.0.0.1:0"},
                                                     env={"NUMBA_NUM_THREADS": str(threads_per_task)})
                         self.client = Client(self.cluster)
                 except BaseException:
