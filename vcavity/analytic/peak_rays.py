@@ -239,25 +239,34 @@ def _lambda_i(incident, kind, params, masking, walter_fit):
 
 
 @njit(cache=True, parallel=True)
+def _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
+               resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, integrate):
+    """Per node ``k``: ``w_k ray(u2_k)`` per peak cell (with ``integrate``) and the ray's state hash.
+
+    One compiled driver for both uses, ``integrate`` a run-time flag: with a literal flag
+    in two drivers Numba compiled :func:`_walk` twice, and the cold model cost 53 s of CPU
+    instead of 39 s (docs/performance.md, "Cold start of the single-bounce model").
+    """
+    lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
+    per_ray = np.zeros((u2_nodes.shape[0], n_slots))
+    digests = np.zeros(u2_nodes.shape[0], dtype=np.int64)
+    for k in prange(u2_nodes.shape[0]):
+        values, digest = _walk(u2_nodes[k], incident, kind, params, facet_kind, facet_data, masking, walter_fit,
+                               lambda_i, resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, integrate)
+        per_ray[k] = u2_weights[k] * values
+        digests[k] = digest
+    return per_ray, digests
+
+
 def _rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
           resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w):
     """``w_k ray(u2_k)`` per node ``k`` and peak cell."""
-    lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
-    per_ray = np.zeros((u2_nodes.shape[0], n_slots))
-    for k in prange(u2_nodes.shape[0]):
-        per_ray[k] = u2_weights[k] * _walk(u2_nodes[k], incident, kind, params, facet_kind, facet_data, masking,
-                                           walter_fit, lambda_i, resolution, slot_of_cell, n_slots, tan_stop,
-                                           gl_x, gl_w, True)[0]
-    return per_ray
+    return _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
+                      resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, True)[0]
 
 
-@njit(cache=True, parallel=True)
 def _signatures(u2_nodes, incident, kind, params, facet_kind, facet_data, masking, walter_fit, resolution,
                 slot_of_cell, tan_stop, gl_x, gl_w):
     """The state hash of each ray (:func:`_walk` without integrating)."""
-    lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
-    out = np.zeros(u2_nodes.shape[0], dtype=np.int64)
-    for k in prange(u2_nodes.shape[0]):
-        out[k] = _walk(u2_nodes[k], incident, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i,
-                       resolution, slot_of_cell, 0, tan_stop, gl_x, gl_w, False)[1]
-    return out
+    return _walk_rays(u2_nodes, np.ones_like(u2_nodes), incident, kind, params, facet_kind, facet_data, masking,
+                      walter_fit, resolution, slot_of_cell, 0, tan_stop, gl_x, gl_w, False)[1]
