@@ -12,6 +12,7 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
 
 if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
@@ -40,8 +41,9 @@ os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 # run (no paths or node ids given): a run of a few files compiles just what it needs.
 # A variant missing from the list is compiled on first use as before; a failed warm-up
 # is reported and changes nothing else. The list: scripts/pytest_compile_log.py on a cold
-# cache, each with its cold compile in seconds there (a heavily loaded machine), which
-# balances the processes.
+# cache, each with its cold compile in seconds there (a heavily loaded machine). The
+# processes share the list, largest first: each claims the next variant not yet claimed
+# (a file created with O_EXCL), so they stay balanced when these costs are off.
 SUITE_VARIANTS = {
     ("v-cavity", "beckmann", "interfaced_lambertian", "interfaced lambertian"): 173,
     ("v-cavity", "phong", "interfaced_lambertian", "interfaced lambertian"): 116,
@@ -65,21 +67,18 @@ SUITE_VARIANTS = {
     ("smith", "ggx", "interfaced_lambertian", "lambertian"): 24,
 }
 
-_WARM = ("import json, sys\n"
+# argv: the variants (JSON), largest first, and the folder of claims
+_WARM = ("import json, os, sys, time\n"
          "from vcavity.simulate.warmup import Variant, compile_variant\n"
-         "for v in json.loads(sys.argv[1]):\n"
-         "    compile_variant(Variant(*v))\n")
-
-
-def _warm_groups(variants: dict, n: int) -> list[list]:
-    """``variants`` in ``n`` groups of about equal cost (largest first, each to the lightest group)."""
-    groups = [[] for _ in range(n)]
-    load = [0.0] * n
-    for variant, cost in sorted(variants.items(), key=lambda item: -item[1]):
-        k = load.index(min(load))
-        groups[k].append(list(variant))
-        load[k] += cost
-    return [g for g in groups if g]
+         "done = 0\n"
+         "for k, v in enumerate(json.loads(sys.argv[1])):\n"
+         "    try:\n"
+         "        os.close(os.open(os.path.join(sys.argv[2], str(k)), os.O_CREAT | os.O_EXCL | os.O_WRONLY))\n"
+         "    except FileExistsError:\n"
+         "        continue\n"
+         "    compile_variant(Variant(*v))\n"
+         "    done += 1\n"
+         "print(done, round(time.perf_counter() - float(sys.argv[3])))\n")
 
 
 def pytest_configure(config):
@@ -88,17 +87,25 @@ def pytest_configure(config):
             or config.args_source is not config.ArgsSource.TESTPATHS or config.option.collectonly):
         return
     t0 = time.perf_counter()
-    children = [subprocess.Popen([sys.executable, "-c", _WARM, json.dumps(group)],
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
-                for group in _warm_groups(SUITE_VARIANTS, workers)]
-    try:
-        failed = [child.communicate()[1] for child in children if child.wait() != 0]
-    except BaseException:
-        for child in children:
-            child.kill()
-        raise
+    largest_first = [list(v) for v, _ in sorted(SUITE_VARIANTS.items(), key=lambda item: -item[1])]
+    with tempfile.TemporaryDirectory(prefix="vcavity-warm-") as claims:
+        children = [subprocess.Popen([sys.executable, "-c", _WARM, json.dumps(largest_first), claims,
+                                      repr(time.perf_counter())],
+                                     stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                    for _ in range(min(workers, len(largest_first)))]
+        try:
+            outputs = [child.communicate() for child in children]
+        except BaseException:
+            for child in children:
+                child.kill()
+            raise
+    # each process: "<variants it compiled or loaded> <seconds until it finished>"
+    shares = [out.split("\n")[-2].split() for (out, _), child in zip(outputs, children)
+              if child.returncode == 0 and out.endswith("\n")]
     note = (f"tests: {len(SUITE_VARIANTS)} kernel variants compiled into (or loaded from) the Numba cache "
-            f"in {len(children)} processes, {time.perf_counter() - t0:.0f} s")
+            f"in {len(children)} processes, {time.perf_counter() - t0:.0f} s "
+            f"({', '.join(f'{n} in {s} s' for n, s in shares)})")
+    failed = [err for (_, err), child in zip(outputs, children) if child.returncode != 0]
     if failed:
         note += f"; a warm-up process failed (its variants compile on first use): {failed[0].strip()[-300:]}"
     print(note, file=sys.stderr)
