@@ -67,7 +67,8 @@ SUITE_VARIANTS = {
     ("smith", "ggx", "interfaced_lambertian", "lambertian"): 24,
 }
 
-# argv: the variants (JSON), largest first, and the folder of claims
+# argv: the variants (JSON), largest first; the folder of claims; the parent's perf_counter()
+# at the start (CLOCK_MONOTONIC, shared by the processes), for the seconds each one reports
 _WARM = ("import json, os, sys, time\n"
          "from vcavity.simulate.warmup import Variant, compile_variant\n"
          "done = 0\n"

@@ -245,7 +245,7 @@ def _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_d
 
     One compiled driver for both uses, ``integrate`` a run-time flag: with a literal flag
     in two drivers Numba compiled :func:`_walk` twice, and the cold model cost 53 s of CPU
-    instead of 39 s (docs/performance.md, "Cold start of the single-bounce model").
+    instead of 39 s (docs/performance.md, "The default suite on two cores").
     """
     lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
     per_ray = np.zeros((u2_nodes.shape[0], n_slots))
