@@ -39,6 +39,7 @@ import threading
 
 import numba
 
+from vcavity._numba import cache_lock
 from vcavity._version import __version__
 
 
@@ -138,6 +139,8 @@ def _choose_cache() -> str:
 CACHE_LOCATION = _choose_cache()
 #: Whether ``cache=True`` is honoured in this process.
 CACHE_ENABLED = bool(CACHE_LOCATION)
+# several processes may compile into this folder at once: their index writes made exclusive
+cache_lock.install(CACHE_LOCATION)
 
 _decorating = threading.Lock()  # the swap of numba.config.CACHE_DIR is process-wide
 
