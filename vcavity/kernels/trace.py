@@ -8,9 +8,7 @@ registries inline the distribution's trig-free groove sampler and the facet's ev
 a mirror never draws for Fresnel, ``kd = 0`` never samples the body and ``eta = 1``
 never evaluates Fresnel. Variants are compiled on first use and cached on disk
 (``cache=True``; closures over plain ints are cacheable, closures over dispatchers are
-not, hence integer constants). The kernel is a small ``prange`` driver over thread slots;
-each block's walk is :func:`_walk_block`, compiled on its own and specialised on the
-same constants passed as literal arguments.
+not, hence integer constants).
 
 The kernel is analog: every path has weight 1, so per-cell results are integer counts
 and merging per-thread histograms is exact in any order.
@@ -26,11 +24,8 @@ Throughput and compile times: docs/performance.md.
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from numba import prange
-from numba.core.errors import NumbaPerformanceWarning
 
 from vcavity._numba.jit import njit
 from vcavity.sensor.binning import bin_block
@@ -136,82 +131,55 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     return build_kernel("kernel", _make_kernel, dist_kind, facet_kind, facet_variant)
 
 
-# _walk_block asks for parallel=True for the code the parfor pipeline makes, not for a prange
-# (its docstring): Numba's note that it found nothing to run in parallel is expected there,
-# and silenced for that function alone (the note names the file it is about).
-warnings.filterwarnings("ignore", category=NumbaPerformanceWarning,
-                        message=r"(?s).*'parallel=True' was specified but no transformation.*kernels[/\\]trace\.py")
-
-
-@njit(cache=True, parallel=True, error_model="numpy")
-def _walk_block(SOURCE_TAG, DIST, FACET, VARIANT, state, n_here, ix, iy, iz, params, facet_data, max_bounces,
-                max_order, resolution, first_binned_order, slot_counts, exit_x, exit_y, exit_z, exit_row, exit_cell,
-                slot_stats):
-    """The ``n_here`` paths of one block from ``state``: traced, binned into ``slot_counts``,
-    their outcomes added to ``slot_stats`` (``N_STATS``; the deepest path kept as a maximum).
-
-    Compiled on its own, once per variant: the kernel passes the kinds and the source tag as
-    its closure's constants, so Numba types them as literals, specialises the walk on them
-    and keys the cached code on them (the tag makes edits to the inlined modules
-    recompile it). Split from the kernel's ``prange`` loop, the parfor passes no longer work
-    on the whole inlined walk: the default variant's cold compile 0.80x, the walk within
-    2.5 % (docs/performance.md, "The walk compiled apart from the parfor driver").
-    ``parallel=True`` although it has no ``prange``: compiled without it (the plain
-    pipeline) the same walk ran 4-11 % slower; ``error_model="numpy"`` as the parfor body
-    the walk ran in before.
-    """
-    absorbed = 0
-    truncated = 0
-    degenerate = 0
-    deepest = 0
-    unbinned = 0
-    n_exits = 0
-    for _ in range(n_here):
-        state, outcome, k, wx, wy, wz = _trace_path(
-            state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
-        deepest = max(deepest, k)
-        if outcome == EXITED:
-            if k < first_binned_order:
-                unbinned += 1
-            else:
-                exit_x[n_exits] = wx
-                exit_y[n_exits] = wy
-                exit_z[n_exits] = wz
-                exit_row[n_exits] = k if k <= max_order else 0
-                n_exits += 1
-        elif outcome == ABSORBED:
-            absorbed += 1
-        elif outcome == TRUNCATED:
-            truncated += 1
-        else:
-            degenerate += 1
-    bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
-    for j in range(n_exits):
-        slot_counts[exit_row[j], exit_cell[j]] += 1
-    slot_stats[STAT_ABSORBED] += absorbed
-    slot_stats[STAT_TRUNCATED] += truncated
-    slot_stats[STAT_DEGENERATE] += degenerate
-    slot_stats[STAT_MAX_BOUNCES] = max(slot_stats[STAT_MAX_BOUNCES], deepest)
-    slot_stats[STAT_UNBINNED] += unbinned
-
-
 def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
     """The Python walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
     def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
                max_bounces, max_order, resolution, n_slots, first_binned_order):
+        _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
         counts = order_cell_tally(n_slots, max_order, resolution)
         stats = np.zeros((n_slots, N_STATS), np.int64)
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
+            slot_counts = counts[slot]
+            absorbed = 0
+            truncated = 0
+            degenerate = 0
+            deepest = 0
+            unbinned = 0
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
-                _walk_block(SOURCE_TAG, DIST, FACET, VARIANT, state, n_here, ix, iy, iz, params, facet_data,
-                            max_bounces, max_order, resolution, first_binned_order, counts[slot], exit_x, exit_y,
-                            exit_z, exit_row, exit_cell, stats[slot])
+                n_exits = 0
+                for _ in range(n_here):
+                    state, outcome, k, wx, wy, wz = _trace_path(
+                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
+                    deepest = max(deepest, k)
+                    if outcome == EXITED:
+                        if k < first_binned_order:
+                            unbinned += 1
+                        else:
+                            exit_x[n_exits] = wx
+                            exit_y[n_exits] = wy
+                            exit_z[n_exits] = wz
+                            exit_row[n_exits] = k if k <= max_order else 0
+                            n_exits += 1
+                    elif outcome == ABSORBED:
+                        absorbed += 1
+                    elif outcome == TRUNCATED:
+                        truncated += 1
+                    else:
+                        degenerate += 1
+                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+                for j in range(n_exits):
+                    slot_counts[exit_row[j], exit_cell[j]] += 1
+            stats[slot, STAT_ABSORBED] = absorbed
+            stats[slot, STAT_TRUNCATED] = truncated
+            stats[slot, STAT_DEGENERATE] = degenerate
+            stats[slot, STAT_MAX_BOUNCES] = deepest
+            stats[slot, STAT_UNBINNED] = unbinned
         return counts, stats
 
     return kernel
