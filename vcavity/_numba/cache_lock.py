@@ -38,7 +38,11 @@ def _flocked(index_path: str, exclusive: bool):
         yield
         return
     with handle:
-        fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX if exclusive else fcntl.LOCK_SH)
+        except OSError:  # a file system without flock (some NFS): Numba's own behaviour
+            yield
+            return
         try:
             yield
         finally:
