@@ -15,6 +15,13 @@ that calls ``modules[kind].op``. In jitted code it is a Numba overload:
 
 Callers stay cacheable: nothing here lands in their closures.
 
+The overload prefers literal types (``prefer_literal=True``). Numba's default tries an
+overload with the arguments' non-literal types first, and the run-time chain types for a
+plain integer: a constant ``kind`` then got the whole chain, every registered module's
+``op`` typed, inlined and lowered into the caller, to be folded away by LLVM at the end.
+The default variant's cold compile spent 12.7 s of CPU on that, 8.0 s with literals first
+(docs/performance.md, "Compile time: literal kinds first").
+
 Numba matches an overload's typing function, implementation and the overloaded Python
 function by their argument names, so the three small wrappers are generated with
 ``exec`` for the given fixed argument list (Numba's inliner does not take ``*args``).
@@ -55,9 +62,10 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
     owner : str
         Dotted name of the registry, for error messages.
     missing : str, optional
-        For an optional ``op``: the expression (of ``math`` and literals) the run-time chain
-        returns for a module without it, e.g. ``"(math.nan, math.nan)"``, a value its callers
-        recognise as invalid. Without it every module must define ``op``.
+        For an optional ``op``: the expression (of ``math`` and literals) returned for a module
+        without it (for a constant kind and in the run-time chain alike), e.g.
+        ``"(math.nan, math.nan)"``, a value its callers recognise as invalid. Without it every
+        module must define ``op``.
 
     Returns
     -------
@@ -71,8 +79,13 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
 
     def resolve(kind):
         if isinstance(kind, types.IntegerLiteral):
-            scope = {"implementation": getattr(modules[kind.literal_value], op)}
-            exec(f"def call(kind, {args}):\n    return implementation({args})\n", scope)
+            module = modules[kind.literal_value]
+            scope = {"math": math}
+            if missing is not None and not hasattr(module, op):
+                exec(f"def call(kind, {args}):\n    return {missing}\n", scope)
+            else:
+                scope["implementation"] = getattr(module, op)
+                exec(f"def call(kind, {args}):\n    return implementation({args})\n", scope)
             return scope["call"]
         if not isinstance(kind, types.Integer):
             raise errors.TypingError(f"{owner}.{op}: the kind must be an integer; got {kind}")
@@ -98,5 +111,5 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
     function.__doc__ = (f"``modules[kind].{op}({args})`` of {owner}; in jitted code ``kind`` must be a "
                         "compile-time constant.")
     function.__module__ = owner
-    overload(function, inline="always")(scope["typer"])
+    overload(function, inline="always", prefer_literal=True)(scope["typer"])
     return function

@@ -29,7 +29,7 @@ from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, order_cell_tally)
+                                      exit_buffers, order_cell_tally, zeroed_slot)
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED)
 from vcavity.microfacet import registry as distributions
@@ -127,14 +127,16 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
                max_bounces, max_order, resolution, n_slots, first_binned_order):
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
         counts = order_cell_tally(n_slots, max_order, resolution)
-        stats = np.zeros((n_slots, N_STATS), np.int64)
+        stats = np.empty((n_slots, N_STATS), np.int64)  # every column written per slot below
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         lam_i = distributions.smith_lambda(DIST, ix, iy, iz, params)  # the first step's, every path's
         for slot in prange(n_slots):
-            slot_counts = counts[slot]
-            lost = np.zeros(3, np.int64)  # absorbed, truncated, degenerate
+            slot_counts = zeroed_slot(counts, slot)
+            lost = np.empty(3, np.int64)  # absorbed, truncated, degenerate
+            for j in range(3):  # not np.zeros: a parallel loop of its own (scaffold.order_cell_tally)
+                lost[j] = 0
             deepest = 0
             unbinned = 0
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()

@@ -33,7 +33,8 @@ from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
+                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world,
+                                      zeroed_slot)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import next_uniform
 
@@ -138,12 +139,12 @@ def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
                max_bounces, max_order, resolution, n_slots, first_binned_order):
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
         counts = order_cell_tally(n_slots, max_order, resolution)
-        stats = np.zeros((n_slots, N_STATS), np.int64)
+        stats = np.empty((n_slots, N_STATS), np.int64)  # every column written per slot below
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
-            slot_counts = counts[slot]
+            slot_counts = zeroed_slot(counts, slot)
             absorbed = 0
             truncated = 0
             degenerate = 0
