@@ -43,7 +43,13 @@ _HASH_PRIME = 1099511628211
 EXTREMUM_STEPS = 3
 
 
-@njit(cache=True, inline="always")
+# _point and _square are compiled once each and inlined by LLVM (``forceinline``), not
+# IR-inlined by Numba (``inline="always"``): _walk and _piece call _point at seven places, and
+# each IR copy carried the run-time chains over every distribution's sample_normal and
+# smith_lambda and every facet's reflectance through Numba's passes. Four models' cold
+# compile 40 -> 31 s of CPU, warm the same or 2 % faster, results identical
+# (docs/performance.md, "Compile time: literal kinds first").
+@njit(cache=True, forceinline=True)
 def _point(tau, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i,
            resolution):
     """State key and integrand at ``tau`` on the ray ``u2`` (see the module docstring).
@@ -81,7 +87,7 @@ def _point(tau, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, w
     return cell * 8 + regime, value, ox, oy, oz, tan_m
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True, forceinline=True)
 def _square(tau, u2, ix, iy, iz, kind, params):
     """Square coordinates ``(u, v)`` of ``o`` at ``tau`` on the ray ``u2`` (physics.md sec. 6)."""
     s = math.sin(_HALF_PI * tau)
