@@ -80,12 +80,20 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, lo
     ``τ_r`` there, or -1; its ``u2`` nodes are every other one): they are copied from the
     ``known_*`` arrays, not evaluated again."""
     n_tau, n_u2 = taus.size, u2s.size
-    value = np.zeros((n_tau, n_u2, sg.N_SLOTS))
-    bounces = np.full((n_tau, n_u2, sg.N_SLOTS), -1, np.int64)
-    image = np.zeros((n_tau, n_u2, sg.N_SLOTS, 2))
+    # not np.zeros / np.full: under parallel=True each is a parallel loop of its own (one more
+    # gufunc to compile); each row is set in the prange loop instead
+    value = np.empty((n_tau, n_u2, sg.N_SLOTS))
+    bounces = np.empty((n_tau, n_u2, sg.N_SLOTS), np.int64)
+    image = np.empty((n_tau, n_u2, sg.N_SLOTS, 2))
     ix, iy, iz = incident[0], incident[1], incident[2]
     half_n = 0.5 * resolution
     for r in prange(n_tau):
+        for q in range(n_u2):
+            for slot in range(sg.N_SLOTS):
+                value[r, q, slot] = 0.0
+                bounces[r, q, slot] = -1
+                image[r, q, slot, 0] = 0.0
+                image[r, q, slot, 1] = 0.0
         buf = np.empty((sg.N_SLOTS, sg.N_FIELDS))
         s = math.sin(_HALF_PI * taus[r])
         u1 = min(s * s, _U1_MAX)
