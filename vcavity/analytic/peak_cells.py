@@ -17,6 +17,7 @@ import math
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.analytic.quadrature import MAX_STEP, MIN_SPECULAR_SUB, STEP_CELLS
 from vcavity.sensor.binning import cell_index, direction_to_cell
@@ -80,7 +81,7 @@ def _scan(incident, kind, params, scale_x, scale_y, profile_t, profile_width, re
     """Cells that ``n_rays`` rays ``u2 = (k + 1/2)/n_rays`` visit where the lobe is finer
     than the sub-cell rule resolves (see :func:`peak_cells`); one row of flags per ray."""
     ix, iy, iz = incident[0], incident[1], incident[2]
-    flags = np.zeros((n_rays, resolution * resolution), dtype=np.bool_)
+    flags = filled(np.empty((n_rays, resolution * resolution), dtype=np.bool_), False)  # not np.zeros (_numba.arrays)
     step_max = STEP_CELLS / resolution
     scale_min = min(scale_x, scale_y)
     for k in prange(n_rays):

@@ -254,8 +254,9 @@ def _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_d
     instead of 39 s (docs/performance.md, "The default suite on two cores").
     """
     lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
-    per_ray = np.zeros((u2_nodes.shape[0], n_slots))
-    digests = np.zeros(u2_nodes.shape[0], dtype=np.int64)
+    # every row is written below; np.zeros would be a parallel loop of its own (_numba.arrays)
+    per_ray = np.empty((u2_nodes.shape[0], n_slots))
+    digests = np.empty(u2_nodes.shape[0], dtype=np.int64)
     for k in prange(u2_nodes.shape[0]):
         values, digest = _walk(u2_nodes[k], incident, kind, params, facet_kind, facet_data, masking, walter_fit,
                                lambda_i, resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, integrate)

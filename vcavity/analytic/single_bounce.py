@@ -24,6 +24,7 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.analytic.terms import (
     MASKING_CODES,
@@ -58,7 +59,7 @@ def specular_projected(incident, outgoing, kind, params, facet_kind, facet_data,
     """
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
-    out = np.zeros(outgoing.shape[0])
+    out = filled(np.empty(outgoing.shape[0]), 0.0)  # not np.zeros (_numba.arrays)
     for q in prange(outgoing.shape[0]):
         ox, oy, oz = outgoing[q, 0], outgoing[q, 1], outgoing[q, 2]
         if oz <= 0.0 or iz <= 0.0:
@@ -182,7 +183,7 @@ def body_projected_sum(incident, outgoing, m, weight, g1_i, kind, params, facet_
     """
     ix, iy, iz = incident[0], incident[1], incident[2]
     lambda_i = 0.0 if masking == VCAVITY else smith_lambda(kind, ix, iy, iz, params, walter_fit)
-    out = np.zeros(outgoing.shape[0])
+    out = filled(np.empty(outgoing.shape[0]), 0.0)  # not np.zeros (_numba.arrays)
     n_m = m.shape[0]
     mx_ = np.ascontiguousarray(m[:, 0])
     my_ = np.ascontiguousarray(m[:, 1])

@@ -42,6 +42,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.analytic import specular_groove as sg
 from vcavity.analytic.single_bounce import ModelNotApplicable
@@ -320,7 +321,7 @@ def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, 
     n_tau = value.shape[0] - 1
     n_u2 = value.shape[1] - 1
     n_keys = (max_order + 1) * resolution * resolution + 1
-    partial = np.zeros((N_CHUNKS, n_keys))
+    partial = filled(np.empty((N_CHUNKS, n_keys)), 0.0)  # not np.zeros (_numba.arrays)
     for chunk in prange(N_CHUNKS):
         px = np.empty(_MAX_POLYGON)
         py = np.empty(_MAX_POLYGON)
@@ -337,9 +338,10 @@ def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, 
                 for slot in range(sg.N_SLOTS):
                     _quad(acc, value, bounces, image, r, q, slot, wl, wh, max_order, max_bounces, resolution,
                           px, py, qx, qy, parts, masses, counts)
-    out = np.zeros(n_keys)
-    for chunk in range(N_CHUNKS):
-        out += partial[chunk]
+    out = filled(np.empty(n_keys), 0.0)
+    for chunk in range(N_CHUNKS):  # in chunk order, element by element (not `out += partial[chunk]`)
+        for key in range(n_keys):
+            out[key] += partial[chunk, key]
     return out
 
 
