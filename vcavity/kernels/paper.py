@@ -90,7 +90,7 @@ def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
             exit_q = np.empty(BLOCK_SIZE, np.int64)
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
-                n_exits = 0
+                n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
                 for _ in range(n_here):
                     state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, params)
                     cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)

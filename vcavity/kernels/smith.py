@@ -142,7 +142,7 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
-                n_exits = 0
+                n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
                 for _ in range(n_here):
                     state, outcome, k, wx, wy, wz = _trace_smith_path(
                         state, ix, iy, iz, lam_i, params, DIST, FACET, VARIANT, facet_data, max_bounces)

@@ -2,7 +2,7 @@
 
 A kernel variant is one walk (``v-cavity`` or ``smith``) for one distribution, facet model
 and facet variant (:func:`vcavity.kernels.trace.variants`); Numba compiles each on first
-use (tens of seconds) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
+use (4-9 s of CPU each on an idle machine) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
 compiles named variants ahead of time, for cluster images and Dask workers
 (:func:`compile_variant`); ``vcavity run`` says what it is compiling while it does
 (:class:`CompileNotice`) instead of staying silent.
