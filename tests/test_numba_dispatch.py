@@ -1,0 +1,88 @@
+"""The registries' dispatch (vcavity/_numba/dispatch.py) on stand-in modules: a constant kind
+compiles its own module's function only, a run-time kind the chain over all of them, an
+optional function falls back to ``missing``, and Python calls check the kind. Deterministic."""
+
+import math
+import types
+
+import numba
+import pytest
+
+from vcavity._numba.dispatch import dispatcher
+
+
+def _module(name, **functions):
+    module = types.ModuleType(f"standin.{name}")
+    module.NAME = name
+    module.__dict__.update(functions)
+    return module
+
+
+@numba.njit
+def _twice(x):
+    return 2.0 * x
+
+
+@numba.njit
+def _plus_one(x):
+    return x + 1.0
+
+
+@numba.njit
+def _untypable(x):
+    return x.no_such_attribute  # a float has none: typing this fails
+
+
+def test_a_constant_kind_compiles_only_its_own_module():
+    """Numba types an overload with non-literal arguments first by default: the run-time chain,
+    which typed and compiled every registered module's function into each kernel variant
+    (docs/performance.md, "Compile time: literal kinds first"). The other module's function
+    must stay uncompiled, and an untypable one must not matter."""
+
+    @numba.njit
+    def other(x):
+        return x - 1.0
+
+    op = dispatcher((_module("good", op=_twice), _module("other", op=other)), "op", ("x",), "standin.registry")
+    strict = dispatcher((_module("good", op=_twice), _module("bad", op=_untypable)), "op", ("x",), "standin.registry")
+
+    @numba.njit
+    def constant_kind(x):
+        return op(0, x) + strict(0, x)
+
+    assert constant_kind(1.5) == 6.0
+    assert other.signatures == []  # never typed, so never compiled
+
+
+def test_a_run_time_kind_takes_the_chain_over_every_module():
+    op = dispatcher((_module("first", op=_twice), _module("second", op=_plus_one)), "op", ("x",), "standin.registry")
+
+    @numba.njit
+    def run_time_kind(kind, x):
+        return op(kind, x)
+
+    assert [run_time_kind(kind, 1.5) for kind in (0, 1)] == [3.0, 2.5]
+    assert [op(kind, 1.5) for kind in (0, 1)] == [3.0, 2.5]  # from Python
+
+
+def test_an_optional_function_falls_back_to_missing_for_constant_and_run_time_kinds():
+    op = dispatcher((_module("has", op=_twice), _module("lacks")), "op", ("x",), "standin.registry",
+                    missing="math.nan")
+
+    @numba.njit
+    def constant_kind(x):
+        return op(1, x)
+
+    @numba.njit
+    def run_time_kind(kind, x):
+        return op(kind, x)
+
+    assert math.isnan(constant_kind(1.5))
+    assert run_time_kind(0, 1.5) == 3.0 and math.isnan(run_time_kind(1, 1.5))
+
+
+@pytest.mark.parametrize("kind", [2, -1, True, 0.5])
+def test_python_calls_refuse_a_kind_outside_the_registry(kind):
+    op = dispatcher((_module("first", op=_twice), _module("second", op=_plus_one)), "op", ("x",), "standin.registry")
+    with pytest.raises(ValueError, match=r"standin\.registry\.op: kind = .*"):
+        op(kind, 1.0)
