@@ -89,12 +89,9 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, lo
     ix, iy, iz = incident[0], incident[1], incident[2]
     half_n = 0.5 * resolution
     for r in prange(n_tau):
-        for q in range(n_u2):
-            for slot in range(sg.N_SLOTS):
-                value[r, q, slot] = 0.0
-                bounces[r, q, slot] = -1
-                image[r, q, slot, 0] = 0.0
-                image[r, q, slot, 1] = 0.0
+        filled(value[r], 0.0)
+        filled(bounces[r], -1)
+        filled(image[r], 0.0)
         buf = np.empty((sg.N_SLOTS, sg.N_FIELDS))
         s = math.sin(_HALF_PI * taus[r])
         u1 = min(s * s, _U1_MAX)

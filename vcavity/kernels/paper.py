@@ -26,13 +26,13 @@ import math
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world,
-                                      zeroed_slot)
+                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
 from vcavity.rng import BLOCK_SIZE, next_uniform
 
 #: Fixed-point scale of the integer weights.
@@ -81,11 +81,10 @@ def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
-            zeroed_slot(weights, slot)
-            zeroed_slot(squares, slot)
-            zeroed_slot(counts, slot)
-            for j in range(N_PAPER_STATS):  # accumulated below; not np.zeros (order_cell_tally)
-                stats[slot, j] = 0
+            filled(weights[slot], 0)
+            filled(squares[slot], 0)
+            filled(counts[slot], 0)
+            filled(stats[slot], 0)  # accumulated below
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             exit_q = np.empty(BLOCK_SIZE, np.int64)
             for b in range(slot, n_blocks, n_slots):

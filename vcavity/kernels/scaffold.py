@@ -5,7 +5,7 @@
 - :data:`SOURCE_TAG`: the hash of every source file the kernels are built from
   (:func:`source_files`), which each kernel closes over so that Numba's cache notices
   edits to inlined code;
-- :func:`order_cell_tally` and :func:`zeroed_slot`, the per-slot tallies the walks return;
+- :func:`order_cell_tally`, the per-slot tallies the walks return;
 - per slot, :func:`exit_buffers` (a block's exits, binned together after its walks) and
   :func:`block_start` (a block's random stream and path count);
 - per path, :func:`sample_groove` and :func:`groove_frame` (the sampled groove and the
@@ -111,21 +111,11 @@ def order_cell_tally(n_slots, max_order, resolution):
     """An int64 tally ``[n_slots, max_order + 1, resolution**2]``, *not zeroed*: per thread slot,
     order slot (0: beyond ``max_order``) and sensor cell, so threads never write one cell.
 
-    Each slot zeroes its own rows (:func:`zeroed_slot`) inside the kernel's ``prange`` loop:
-    a ``np.zeros`` in a parallel kernel is a parallel loop of its own, which Numba compiles
-    as one more gufunc (~0.5 s of CPU per array on a cold compile).
+    Each slot zeroes its own rows (``filled(tally[slot], 0)``, :mod:`vcavity._numba.arrays`)
+    inside the kernel's ``prange`` loop: a ``np.zeros`` in a parallel kernel is a parallel
+    loop of its own, which Numba compiles as one more gufunc.
     """
     return np.empty((n_slots, max_order + 1, resolution * resolution), np.int64)
-
-
-@njit(cache=True, inline="always")
-def zeroed_slot(tally, slot):
-    """``tally[slot]`` (a view) after setting it to zero, by plain loops (see :func:`order_cell_tally`)."""
-    rows = tally[slot]
-    for row in range(rows.shape[0]):
-        for cell in range(rows.shape[1]):
-            rows[row, cell] = 0
-    return rows
 
 
 @njit(cache=True, inline="always")
@@ -236,5 +226,5 @@ def to_world(dx, dy, cos_phi, sin_phi):
     return wx, wy
 
 
-__all__ = ["EXITED", "ABSORBED", "TRUNCATED", "DEGENERATE", "SOURCE_TAG", "source_files", "build_kernel", "order_cell_tally", "zeroed_slot", "exit_buffers",
+__all__ = ["EXITED", "ABSORBED", "TRUNCATED", "DEGENERATE", "SOURCE_TAG", "source_files", "build_kernel", "order_cell_tally", "exit_buffers",
            "block_start", "sample_groove", "groove_frame", "to_world"]

@@ -25,11 +25,12 @@ import math
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, order_cell_tally, zeroed_slot)
+                                      exit_buffers, order_cell_tally)
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED)
 from vcavity.microfacet import registry as distributions
@@ -133,10 +134,8 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
         iz = incident[2]
         lam_i = distributions.smith_lambda(DIST, ix, iy, iz, params)  # the first step's, every path's
         for slot in prange(n_slots):
-            slot_counts = zeroed_slot(counts, slot)
-            lost = np.empty(3, np.int64)  # absorbed, truncated, degenerate
-            for j in range(3):  # not np.zeros: a parallel loop of its own (scaffold.order_cell_tally)
-                lost[j] = 0
+            slot_counts = filled(counts[slot], 0)
+            lost = filled(np.empty(3, np.int64), 0)  # absorbed, truncated, degenerate
             deepest = 0
             unbinned = 0
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()

@@ -27,14 +27,14 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
+from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world,
-                                      zeroed_slot)
+                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import next_uniform
 
@@ -144,7 +144,7 @@ def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
         iy = incident[1]
         iz = incident[2]
         for slot in prange(n_slots):
-            slot_counts = zeroed_slot(counts, slot)
+            slot_counts = filled(counts[slot], 0)
             absorbed = 0
             truncated = 0
             degenerate = 0
