@@ -1,6 +1,8 @@
 """The registries' dispatch (vcavity/_numba/dispatch.py) on stand-in modules: a constant kind
 compiles its own module's function only, a run-time kind the chain over all of them, an
-optional function falls back to ``missing``, and Python calls check the kind. Deterministic."""
+optional function falls back to ``missing``, and Python calls check the kind; and ``apart``:
+constants stay constants inside the function compiled apart, which has NumPy's error model.
+Deterministic."""
 
 import math
 import types
@@ -8,7 +10,7 @@ import types
 import numba
 import pytest
 
-from vcavity._numba.dispatch import dispatcher
+from vcavity._numba.dispatch import apart, dispatcher
 
 
 def _module(name, **functions):
@@ -86,3 +88,57 @@ def test_python_calls_refuse_a_kind_outside_the_registry(kind):
     op = dispatcher((_module("first", op=_twice), _module("second", op=_plus_one)), "op", ("x",), "standin.registry")
     with pytest.raises(ValueError, match=r"standin\.registry\.op: kind = .*"):
         op(kind, 1.0)
+
+
+def test_apart_keeps_a_constant_kind_constant():
+    """The kernels' walks are compiled apart with their kinds as closure constants; inside, the
+    registries' dispatch must still see constants. Typed with a run-time kind (Numba's
+    default, non-literal first) it would compile the chain, the other module's function with it."""
+
+    @numba.njit
+    def other(x):
+        return x - 1.0
+
+    op = dispatcher((_module("good", op=_twice), _module("other", op=other)), "op", ("x",), "standin.registry")
+
+    @numba.njit(inline="always")
+    def walk(x, kind):
+        return op(kind, x) + 1.0
+
+    walk_apart = apart(walk, "standin.walks")
+    KIND = 0
+
+    @numba.njit
+    def caller(x):
+        return walk_apart(x, KIND)
+
+    assert caller(1.5) == 4.0
+    assert other.signatures == []  # never typed, so never compiled
+
+
+def test_apart_divides_with_numpy_s_error_model():
+    """As inside Numba's parallel loops, where the walks were inlined before: 1/0 is inf, not a
+    raise (Python's error model would test every division)."""
+
+    @numba.njit(inline="always")
+    def ratio(x, y):
+        return x / y
+
+    ratio_apart = apart(ratio, "standin.walks")
+
+    @numba.njit
+    def caller(x, y):
+        return ratio_apart(x, y)
+
+    assert caller(1.0, 0.0) == math.inf
+    assert ratio_apart(1.0, 4.0) == 0.25  # from Python: the function itself
+    with pytest.raises(ZeroDivisionError):
+        ratio(1.0, 0.0)  # the function itself, from Python: Python's rules
+
+
+def test_apart_refuses_keywords_and_defaults():
+    def with_default(x, y=1.0):
+        return x + y
+
+    with pytest.raises(ValueError, match="only positional arguments without defaults"):
+        apart(with_default, "standin.walks")

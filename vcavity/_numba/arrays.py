@@ -1,13 +1,24 @@
-"""Array set-up for ``parallel=True`` functions without parallel loops of its own.
+"""Arrays in jitted code: set-up without parallel loops, and views without reference counts.
 
-Under ``parallel=True`` Numba turns ``np.zeros``, ``np.full``, ``np.ones`` and whole-array
+:func:`filled`: under ``parallel=True`` Numba turns ``np.zeros``, ``np.full``, ``np.ones`` and whole-array
 expressions (``a[:] = v``, ``a += b``) into parallel loops, each lowered as one more gufunc:
 0.3-0.5 s of CPU apiece on a cold cache (docs/performance.md, "Compile time: literal kinds
 first"), for set-up work that takes microseconds. :func:`filled` does the same with a plain
 loop, compiled once per array type and cached.
+
+:func:`borrowed`: a function compiled apart (:func:`vcavity._numba.dispatch.apart` and the
+registries' dispatch) takes a reference to each array argument on entry and drops it on
+return, two atomic operations on the array's counter (``NRT_incref``/``NRT_decref``) that
+LLVM keeps after inlining the function (docs/performance.md, "Compile time: compiled
+apart"). The walks hand such functions views of their arrays that have no counter: every
+reference operation on them is then a test of a null pointer that LLVM folds away.
 """
 
 from __future__ import annotations
+
+from numba import types
+from numba.core import cgutils
+from numba.extending import intrinsic
 
 from vcavity._numba.jit import njit
 
@@ -34,4 +45,37 @@ def filled(array, value):
     return array
 
 
-__all__ = ["filled"]
+@intrinsic
+def borrowed(typingctx, array):
+    """A view of ``array`` (same data, shape and strides) without a reference count.
+
+    Jitted code only. The view's meminfo and parent are null, so Numba's reference
+    operations on it do nothing; it must not outlive ``array``: use it within the function
+    that holds ``array``, never return or store it.
+
+    Parameters
+    ----------
+    array : ndarray
+        Any array type.
+
+    Returns
+    -------
+    ndarray
+        Of ``array``'s type.
+    """
+    if not isinstance(array, types.Array):
+        return None
+
+    def codegen(context, builder, signature, args):
+        source = context.make_array(array)(context, builder, value=args[0])
+        view = context.make_array(array)(context, builder)
+        for field in ("nitems", "itemsize", "data", "shape", "strides"):
+            setattr(view, field, getattr(source, field))
+        view.meminfo = cgutils.get_null_value(view.meminfo.type)
+        view.parent = cgutils.get_null_value(view.parent.type)
+        return view._getvalue()
+
+    return array(array), codegen
+
+
+__all__ = ["borrowed", "filled"]

@@ -1,11 +1,12 @@
-"""Compile-time dispatch over a registry of modules (used by the two registries).
+"""Compile-time dispatch over a registry of modules (used by the two registries), and
+functions compiled apart from their callers.
 
 ``dispatcher(modules, op, argnames)`` returns a Python function ``op(kind, *argnames)``
 that calls ``modules[kind].op``. In jitted code it is a Numba overload:
 
 - for a compile-time constant ``kind`` (an integer literal: a closure int, as the kernel
-  factory uses, or ``numba.literally(kind)``) it inlines ``modules[kind].op`` itself: no
-  branch, no function pointer; this is how the kernel specialises;
+  factory uses, or ``numba.literally(kind)``) it calls ``modules[kind].op`` itself, no
+  branch, compiled apart (see below); this is how the kernel specialises;
 - for a run-time integer ``kind`` it inlines a chain ``if kind == 0: ... elif ...`` over
   every registered module, so one compiled function serves all kinds (the analytic
   models use this: one compile instead of one per kind). The chain has no branch for an
@@ -22,6 +23,19 @@ plain integer: a constant ``kind`` then got the whole chain, every registered mo
 The default variant's cold compile spent 12.7 s of CPU on that, 8.0 s with literals first
 (docs/performance.md, "Compile time: literal kinds first").
 
+**Compiled apart, inlined by LLVM.** A constant kind's call, and a function given to
+:func:`apart`, is compiled once per caller's compile as a function of its own
+(``inline="never"``) that LLVM inlines (``forceinline``), instead of Numba inlining its IR
+(``inline="always"``). Numba compiles an ``inline="always"`` overload in full anyway, then
+types and lowers its IR again inside every caller, and every level of such inlining
+repeats the work of the levels below: the default kernel variant's cold compile was 6.7 s
+of CPU, 4.2 s with the facet event, the distribution's sampler and the walk compiled apart
+(docs/performance.md, "Compile time: compiled apart"). The walk's speed is unchanged under
+two conditions, both measured: the functions apart use NumPy's error model (``error_model
+="numpy"``, as Numba's parallel loops do: no test and raise for a division by zero), and
+their callers pass arrays as :func:`vcavity._numba.arrays.borrowed` views (no reference
+counting per call).
+
 Numba matches an overload's typing function, implementation and the overloaded Python
 function by their argument names, so the three small wrappers are generated with
 ``exec`` for the given fixed argument list (Numba's inliner does not take ``*args``).
@@ -29,12 +43,16 @@ function by their argument names, so the three small wrappers are generated with
 
 from __future__ import annotations
 
+import inspect
 import keyword
 import math
 
 from numba import types
 from numba.core import errors
 from numba.extending import overload
+
+#: Compiler options of the functions compiled apart (see the module docstring).
+APART = {"forceinline": True, "error_model": "numpy"}
 
 
 def check_kind(modules: tuple, kind, owner: str) -> int:
@@ -77,6 +95,12 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
             raise ValueError(f"not an identifier: {name!r}")
     args = ", ".join(argnames)
 
+    def resolve_constant(kind):
+        return resolve(kind) if isinstance(kind, types.IntegerLiteral) else None
+
+    def resolve_variable(kind):
+        return None if isinstance(kind, types.IntegerLiteral) else resolve(kind)
+
     def resolve(kind):
         if isinstance(kind, types.IntegerLiteral):
             module = modules[kind.literal_value]
@@ -104,12 +128,53 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
         exec("\n".join(body) + "\n", scope)
         return scope["call"]
 
-    scope = {"modules": modules, "resolve": resolve, "check_kind": check_kind, "owner": f"{owner}.{op}"}
+    scope = {"modules": modules, "resolve_constant": resolve_constant, "resolve_variable": resolve_variable,
+             "check_kind": check_kind, "owner": f"{owner}.{op}"}
     exec(f"def {op}(kind, {args}):\n    return modules[check_kind(modules, kind, owner)].{op}({args})\n"
-         f"def typer(kind, {args}):\n    return resolve(kind)\n", scope)
+         f"def typer_constant(kind, {args}):\n    return resolve_constant(kind)\n"
+         f"def typer_variable(kind, {args}):\n    return resolve_variable(kind)\n", scope)
     function = scope[op]
     function.__doc__ = (f"``modules[kind].{op}({args})`` of {owner}; in jitted code ``kind`` must be a "
                         "compile-time constant.")
     function.__module__ = owner
-    overload(function, inline="always", prefer_literal=True)(scope["typer"])
+    # two overloads, each answering only its own case: a constant kind compiled apart, the
+    # run-time chain inlined into its caller (the analytic models' parallel loops)
+    overload(function, inline="never", prefer_literal=True, jit_options=APART)(scope["typer_constant"])
+    overload(function, inline="always", prefer_literal=True)(scope["typer_variable"])
     return function
+
+
+def apart(function, owner: str):
+    """``function`` compiled apart from its jitted callers and inlined by LLVM.
+
+    Parameters
+    ----------
+    function : numba dispatcher
+        Typically ``njit(inline="always")``: its own callees are inlined into it once.
+    owner : str
+        Dotted name, for the returned function's ``__module__``.
+
+    Returns
+    -------
+    function
+        Callable from Python (calls ``function``) and from jitted code, where it is compiled
+        once per caller's compile and argument types, compile-time constants (integer
+        literals: a kernel's closure ints) kept as such, so that the registries' dispatch
+        inside it sees constant kinds. Compiler options :data:`APART`: pass arrays as
+        :func:`vcavity._numba.arrays.borrowed` views from hot loops.
+    """
+    python_function = getattr(function, "py_func", function)
+    parameters = inspect.signature(python_function).parameters.values()
+    if any(p.kind not in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD) or p.default is not p.empty for p in parameters):
+        raise ValueError(f"{python_function.__name__}: only positional arguments without defaults")
+    args = ", ".join(p.name for p in parameters)
+    # the overload's implementation is the function's own Python code (same argument
+    # names, as Numba requires): no wrapper, no inlining level of its own
+    scope = {"implementation": function, "python_function": python_function}
+    exec(f"def {function.__name__}({args}):\n    return implementation({args})\n"
+         f"def typer({args}):\n    return python_function\n", scope)
+    entry = scope[function.__name__]
+    entry.__doc__ = function.__doc__
+    entry.__module__ = owner
+    overload(entry, inline="never", prefer_literal=True, jit_options=APART)(scope["typer"])
+    return entry

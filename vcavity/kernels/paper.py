@@ -26,7 +26,7 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._numba.arrays import filled
+from vcavity._numba.arrays import borrowed, filled
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
@@ -87,11 +87,13 @@ def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
             filled(stats[slot], 0)  # accumulated below
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
             exit_q = np.empty(BLOCK_SIZE, np.int64)
+            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+            walk_data = borrowed(facet_data)
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
                 n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
                 for _ in range(n_here):
-                    state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, params)
+                    state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, walk_params)
                     cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)
                     state, u0 = next_uniform(state)
                     if u0 < 0.5:  # a uniform point of the left facet, x in (-1, 0]
@@ -118,7 +120,7 @@ def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
                     while True:
                         k += 1
                         state, event, dx, dy, dz = facets.event(FACET, VARIANT, state, dx, dy, dz, cos_in,
-                                                                nx, cos_t, facet_data)
+                                                                nx, cos_t, walk_data)
                         if event == FACET_ABSORBED:
                             fate = ABSORBED
                             break

@@ -25,7 +25,8 @@ import math
 import numpy as np
 from numba import prange
 
-from vcavity._numba.arrays import filled
+from vcavity._numba.arrays import borrowed, filled
+from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
@@ -101,6 +102,10 @@ def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, f
     return state, EXITED, k, wx, wy, wz
 
 
+#: The path walk compiled apart from the kernel (as :data:`vcavity.kernels.trace.trace_path`).
+trace_smith_path = apart(_trace_smith_path, __name__)
+
+
 #: None when the Smith walk can use a distribution, else why not (one line).
 walkable = distributions.smith_walk_refusal
 
@@ -139,12 +144,14 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
             deepest = 0
             unbinned = 0
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
+            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+            walk_data = borrowed(facet_data)
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
                 n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
                 for _ in range(n_here):
-                    state, outcome, k, wx, wy, wz = _trace_smith_path(
-                        state, ix, iy, iz, lam_i, params, DIST, FACET, VARIANT, facet_data, max_bounces)
+                    state, outcome, k, wx, wy, wz = trace_smith_path(
+                        state, ix, iy, iz, lam_i, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
                     deepest = max(deepest, k)
                     if outcome == EXITED:
                         if k < first_binned_order:

@@ -4,11 +4,13 @@
 closed over three integer constants: the distribution and the facet model (positions in
 their registries, :mod:`vcavity.microfacet.registry`, :mod:`vcavity.facet.registry`) and
 the facet's compiled variant. Each variant contains only the code its scene needs: the
-registries inline the distribution's trig-free groove sampler and the facet's event, so
-a mirror never draws for Fresnel, ``kd = 0`` never samples the body and ``eta = 1``
-never evaluates Fresnel. Variants are compiled on first use and cached on disk
+registries pick the distribution's trig-free groove sampler and the facet's event at
+compile time, so a mirror never draws for Fresnel, ``kd = 0`` never samples the body and
+``eta = 1`` never evaluates Fresnel. Variants are compiled on first use and cached on disk
 (``cache=True``; closures over plain ints are cacheable, closures over dispatchers are
-not, hence integer constants).
+not, hence integer constants). The path walk, the sampler and the event are each compiled
+apart and inlined by LLVM (:func:`vcavity._numba.dispatch.apart`); the kernel hands them
+reference-count-free views of its arrays (:func:`vcavity._numba.arrays.borrowed`).
 
 The kernel is analog: every path has weight 1, so per-cell results are integer counts
 and merging per-thread histograms is exact in any order.
@@ -27,7 +29,8 @@ from __future__ import annotations
 import numpy as np
 from numba import prange
 
-from vcavity._numba.arrays import filled
+from vcavity._numba.arrays import borrowed, filled
+from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
@@ -90,11 +93,17 @@ def _trace_path(state, ix, iy, iz, params, dist_kind, facet_kind, facet_variant,
     return state, EXITED, k, wx, wy, dz
 
 
+#: The path walk compiled apart from the kernel, once per variant (its kinds are the
+#: kernel's constants), and inlined by LLVM: 0.9 s of CPU less per variant's cold compile
+#: than Numba inlining it (docs/performance.md, "Compile time: compiled apart").
+trace_path = apart(_trace_path, __name__)
+
+
 def variants() -> list[tuple[str, str, str]]:
     """Every kernel variant :func:`get_kernel` can build, as (distribution, facet, facet variant) names.
 
     One per registered distribution and facet variant (5 x (1 + 3) = 20 today); each is
-    compiled on first use (about 7 s of CPU, docs/performance.md) and then loaded from
+    compiled on first use (about 4 s of CPU, docs/performance.md) and then loaded from
     Numba's disk cache. The list follows the registries, so a new distribution or facet
     model adds its variants here without edits.
 
@@ -151,12 +160,14 @@ def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
             deepest = 0
             unbinned = 0
             exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
+            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+            walk_data = borrowed(facet_data)
             for b in range(slot, n_blocks, n_slots):
                 state, n_here = block_start(direction_key, first_block, b, n_paths)
                 n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
                 for _ in range(n_here):
-                    state, outcome, k, wx, wy, wz = _trace_path(
-                        state, ix, iy, iz, params, DIST, FACET, VARIANT, facet_data, max_bounces)
+                    state, outcome, k, wx, wy, wz = trace_path(
+                        state, ix, iy, iz, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
                     deepest = max(deepest, k)
                     if outcome == EXITED:
                         if k < first_binned_order:
