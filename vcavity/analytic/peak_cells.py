@@ -18,6 +18,7 @@ import numpy as np
 from numba import prange
 
 from vcavity._numba.arrays import filled
+from vcavity._numba.interp import interp
 from vcavity._numba.jit import njit
 from vcavity.analytic.quadrature import MAX_STEP, MIN_SPECULAR_SUB, STEP_CELLS
 from vcavity.sensor.binning import cell_index, direction_to_cell
@@ -111,10 +112,10 @@ def _scan(incident, kind, params, scale_x, scale_y, profile_t, profile_width, re
             # times its width in slope, alpha_min times the profile's width at radius T
             tx = mx / (mz * scale_x)
             ty = my / (mz * scale_y)
-            width = 2.0 * im * scale_min * np.interp(math.sqrt(tx * tx + ty * ty), profile_t, profile_width)
+            width = 2.0 * im * scale_min * interp(math.sqrt(tx * tx + ty * ty), profile_t, profile_width)
             # the sub-cell rule's error on a lobe of that width, at most the mass beyond
             ratio = spacing / width if width > 0.0 else math.inf
-            if mass * math.exp(np.interp(ratio, _GL_RATIO, _GL_LOG_ERROR)) > min_error:
+            if mass * math.exp(interp(ratio, _GL_RATIO, _GL_LOG_ERROR)) > min_error:
                 flags[k, direction_to_cell(ox, oy, oz, resolution)] = True
     return flags
 
