@@ -19,14 +19,14 @@ if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
     signal.signal(signal.SIGINT, signal.default_int_handler)
 
 # OpenMP threads that sleep when idle, in the test processes and every process they start
-# (set before any parallel kernel runs here). The suite runs two xdist workers on two
-# cores, each with as many kernel threads as cores, plus the CLI tests' child processes:
-# by default GNU OpenMP's threads spin after each parallel region, and beside another busy
-# process that spinning takes the cores from the work. Measured (docs/performance.md, "The
-# default suite on two cores"): test_resume_cli's SIGINT test, which runs the kernel in
-# chunks of 8 blocks, 7 s alone, 38 s in the suite, 72 s beside one busy core; a
-# `vcavity run` in chunks of 8 blocks beside a busy core 8-14 s spinning, 4.8 s passive.
-# Results do not depend on it (threads only change who runs which block).
+# (set before any parallel loop runs here). The suite runs two xdist workers on two cores,
+# each with as many threads as cores, plus the CLI tests' child processes: by default GNU
+# OpenMP's threads spin after each parallel region (the analytic models' Numba parallel
+# loops; the kernels' slots are Python threads, which sleep), and beside another busy
+# process that spinning takes the cores from the work. Measured when the kernels were
+# parallel loops too (docs/performance.md, "The default suite on two cores"):
+# test_resume_cli's SIGINT test, which runs the kernel in chunks of 8 blocks, 7 s alone,
+# 38 s in the suite, 72 s beside one busy core. Results do not depend on it.
 os.environ.setdefault("OMP_WAIT_POLICY", "passive")
 
 

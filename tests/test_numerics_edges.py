@@ -239,7 +239,11 @@ def test_walk_is_float64_throughout():
 
     sim.kernel = record
     sim.compile()  # records the exact arguments the simulator passes
-    _assert_float64_only(_types_of(kernel.py_func, *recorded["args"]))
+    args = recorded["args"]
+    max_order, resolution = args[8], args[9]
+    # the jitted walk of slot 0 with the rows the kernel hands it (vcavity.kernels.scaffold.SlotKernel)
+    slot_rows = kernel.slot_rows(kernel.outputs(1, max_order, resolution), 0)
+    _assert_float64_only(_types_of(kernel.walk.py_func, 0, *args, *slot_rows))
     _assert_float64_only(_types_of(fr.fresnel_dielectric.py_func, 0.3, 1.5))
     _assert_float64_only(_types_of(direction_to_cell.py_func, 0.1, 0.2, 0.97, 57))
     exits = np.full(4, 0.5)

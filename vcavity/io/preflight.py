@@ -242,7 +242,7 @@ def check_memory(config, threads: int, n_cells: int) -> int:
     ----------
     config : vcavity.config.RunConfig
     threads : int
-        Numba threads the run uses (one tally per thread).
+        Threads the run uses (one tally per kernel slot, a slot per thread).
     n_cells : int
         Sensor cells (``sensor_resolution`` squared).
 

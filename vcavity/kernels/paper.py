@@ -24,16 +24,15 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
-from vcavity._numba.arrays import borrowed, filled
+from vcavity._numba.arrays import borrowed
 from vcavity.sensor.binning import bin_block
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
-from vcavity.rng import BLOCK_SIZE, next_uniform
+                                      exit_buffers, groove_frame, sample_groove, to_world)
+from vcavity.rng import next_uniform
 
 #: Fixed-point scale of the integer weights.
 WEIGHT_SCALE = 65536.0
@@ -51,7 +50,7 @@ N_PAPER_STATS = 8
 
 
 def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
-    """The jitted paper-estimator walk for one scene (built once per process).
+    """The kernel of the paper-estimator walk for one scene (built once per process).
 
     Signature::
 
@@ -64,102 +63,95 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     beyond max_order) and cell, ``counts`` the number of those paths. Blocks and slots as
     in :func:`vcavity.kernels.trace.get_kernel`.
     """
-    return build_kernel("paper_kernel", _make_paper_kernel, dist_kind, facet_kind, facet_variant)
+    return build_kernel("paper_kernel", _make_paper_kernel, dist_kind, facet_kind, facet_variant, 3, N_PAPER_STATS, 3)
 
 
 def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
-    """The Python walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
+    """The Python walk of one slot of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
-    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots):
+    def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+             max_bounces, max_order, resolution, n_slots, weights, squares, counts, stats, exits, exit_ints):
+        # weights, squares, counts [max_order + 1, n_cells] and stats [N_PAPER_STATS]: this
+        # slot's rows, zeroed; exits, exit_ints: its scratch rows (exit_buffers; row 2: q)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
-        weights = order_cell_tally(n_slots, max_order, resolution)
-        squares = order_cell_tally(n_slots, max_order, resolution)
-        counts = order_cell_tally(n_slots, max_order, resolution)
-        stats = np.empty((n_slots, N_PAPER_STATS), np.int64)
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
-        for slot in prange(n_slots):
-            filled(weights[slot], 0)
-            filled(squares[slot], 0)
-            filled(counts[slot], 0)
-            filled(stats[slot], 0)  # accumulated below
-            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
-            exit_q = np.empty(BLOCK_SIZE, np.int64)
-            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
-            walk_data = borrowed(facet_data)
-            for b in range(slot, n_blocks, n_slots):
-                state, n_here = block_start(direction_key, first_block, b, n_paths)
-                n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
-                for _ in range(n_here):
-                    state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, walk_params)
-                    cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)
-                    state, u0 = next_uniform(state)
-                    if u0 < 0.5:  # a uniform point of the left facet, x in (-1, 0]
-                        surface = LEFT
-                        x = -2.0 * u0
+        exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers(exits, exit_ints)
+        exit_q = exit_ints[2]
+        walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+        walk_data = borrowed(facet_data)
+        for b in range(slot, n_blocks, n_slots):
+            state, n_here = block_start(direction_key, first_block, b, n_paths)
+            n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
+            for _ in range(n_here):
+                state, tan_m, cos_phi, sin_phi = sample_groove(state, DIST, walk_params)
+                cos_t, sin_t, dx, dy, dz = groove_frame(tan_m, cos_phi, sin_phi, ix, iy, iz)
+                state, u0 = next_uniform(state)
+                if u0 < 0.5:  # a uniform point of the left facet, x in (-1, 0]
+                    surface = LEFT
+                    x = -2.0 * u0
+                    nx = sin_t
+                    cos_in = -(dz + tan_m * dx) * cos_t
+                else:  # of the right facet, x in [0, 1)
+                    surface = RIGHT
+                    x = 2.0 * u0 - 1.0
+                    nx = -sin_t
+                    cos_in = -(dz - tan_m * dx) * cos_t
+                lit = cos_in > 0.0
+                if lit:  # visible from the light: toward i the segment leaves the groove
+                    toward, _x = next_surface(surface, x, -dx, -dz, tan_m)
+                    lit = toward == OPENING
+                if not lit:
+                    stats[PAPER_ZERO_WEIGHT] += 1
+                    continue
+                state, u_round = next_uniform(state)
+                q = np.int64(math.floor(cos_in / (iz * cos_t) * WEIGHT_SCALE + u_round))
+                k = 0
+                fate = EXITED
+                while True:
+                    k += 1
+                    state, event, dx, dy, dz = facets.event(FACET, VARIANT, state, dx, dy, dz, cos_in,
+                                                            nx, cos_t, walk_data)
+                    if event == FACET_ABSORBED:
+                        fate = ABSORBED
+                        break
+                    surface, x = next_surface(surface, x, dx, dz, tan_m)
+                    if surface == OPENING:
+                        break
+                    if surface == NO_HIT:
+                        fate = DEGENERATE
+                        break
+                    if k == max_bounces:
+                        fate = TRUNCATED
+                        break
+                    if surface == LEFT:
                         nx = sin_t
                         cos_in = -(dz + tan_m * dx) * cos_t
-                    else:  # of the right facet, x in [0, 1)
-                        surface = RIGHT
-                        x = 2.0 * u0 - 1.0
+                    else:
                         nx = -sin_t
                         cos_in = -(dz - tan_m * dx) * cos_t
-                    lit = cos_in > 0.0
-                    if lit:  # visible from the light: toward i the segment leaves the groove
-                        toward, _x = next_surface(surface, x, -dx, -dz, tan_m)
-                        lit = toward == OPENING
-                    if not lit:
-                        stats[slot, PAPER_ZERO_WEIGHT] += 1
-                        continue
-                    state, u_round = next_uniform(state)
-                    q = np.int64(math.floor(cos_in / (iz * cos_t) * WEIGHT_SCALE + u_round))
-                    k = 0
-                    fate = EXITED
-                    while True:
-                        k += 1
-                        state, event, dx, dy, dz = facets.event(FACET, VARIANT, state, dx, dy, dz, cos_in,
-                                                                nx, cos_t, walk_data)
-                        if event == FACET_ABSORBED:
-                            fate = ABSORBED
-                            break
-                        surface, x = next_surface(surface, x, dx, dz, tan_m)
-                        if surface == OPENING:
-                            break
-                        if surface == NO_HIT:
-                            fate = DEGENERATE
-                            break
-                        if k == max_bounces:
-                            fate = TRUNCATED
-                            break
-                        if surface == LEFT:
-                            nx = sin_t
-                            cos_in = -(dz + tan_m * dx) * cos_t
-                        else:
-                            nx = -sin_t
-                            cos_in = -(dz - tan_m * dx) * cos_t
-                    stats[slot, PAPER_MAX_BOUNCES] = max(stats[slot, PAPER_MAX_BOUNCES], k)
-                    if fate == EXITED:
-                        wx, wy = to_world(dx, dy, cos_phi, sin_phi)
-                        inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
-                        exit_x[n_exits] = wx * inv
-                        exit_y[n_exits] = wy * inv
-                        exit_z[n_exits] = dz * inv
-                        exit_row[n_exits] = k if k <= max_order else 0
-                        exit_q[n_exits] = q
-                        n_exits += 1
-                    else:  # the PAPER_* columns are in the order of the outcome codes
-                        stats[slot, PAPER_ABSORBED + fate - ABSORBED] += q
-                        stats[slot, PAPER_ABSORBED_PATHS + fate - ABSORBED] += 1
-                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
-                for j in range(n_exits):
-                    order = exit_row[j]
-                    cell = exit_cell[j]
-                    q = exit_q[j]
-                    weights[slot, order, cell] += q
-                    squares[slot, order, cell] += q * q
-                    counts[slot, order, cell] += 1
-        return weights, squares, counts, stats
+                if k > stats[PAPER_MAX_BOUNCES]:  # not max(): one integer overload less to compile
+                    stats[PAPER_MAX_BOUNCES] = k
+                if fate == EXITED:
+                    wx, wy = to_world(dx, dy, cos_phi, sin_phi)
+                    inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
+                    exit_x[n_exits] = wx * inv
+                    exit_y[n_exits] = wy * inv
+                    exit_z[n_exits] = dz * inv
+                    exit_row[n_exits] = k if k <= max_order else 0
+                    exit_q[n_exits] = q
+                    n_exits += 1
+                else:  # the PAPER_* columns are in the order of the outcome codes
+                    stats[PAPER_ABSORBED + fate - ABSORBED] += q
+                    stats[PAPER_ABSORBED_PATHS + fate - ABSORBED] += 1
+            bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+            for j in range(n_exits):
+                order = exit_row[j]
+                cell = exit_cell[j]
+                q = exit_q[j]
+                weights[order, cell] += q
+                squares[order, cell] += q * q
+                counts[order, cell] += 1
 
-    return kernel
+    return walk

@@ -23,20 +23,22 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import prange
 
-from vcavity._numba.arrays import borrowed, filled
+from vcavity._numba.arrays import borrowed
 from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, order_cell_tally)
+                                      exit_buffers)
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
                                    STAT_UNBINNED)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng.ziggurat import standard_exponential
 from vcavity.sensor.binning import bin_block
+
+# the walk counts a lost path in column STAT_ABSORBED + outcome - ABSORBED
+assert (STAT_TRUNCATED, STAT_DEGENERATE) == (STAT_ABSORBED + TRUNCATED - ABSORBED, STAT_ABSORBED + DEGENERATE - ABSORBED)
 
 
 @njit(cache=True, inline="always")
@@ -111,7 +113,7 @@ walkable = distributions.smith_walk_refusal
 
 
 def get_smith_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
-    """The jitted Smith walk for one distribution, facet model and facet variant.
+    """The kernel of the Smith walk for one distribution, facet model and facet variant.
 
     Signature, arguments and results as :func:`vcavity.kernels.trace.get_kernel`'s kernel.
 
@@ -123,58 +125,53 @@ def get_smith_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     reason = walkable(distributions.MODULES[distributions.REGISTRY.check_kind(dist_kind, "get_smith_kernel")].NAME)
     if reason is not None:
         raise ValueError(reason)
-    return build_kernel("smith_kernel", _make_smith_kernel, dist_kind, facet_kind, facet_variant)
+    return build_kernel("smith_kernel", _make_smith_kernel, dist_kind, facet_kind, facet_variant, 1, N_STATS)
 
 
 def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
-    """The Python Smith walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
+    """The Python Smith walk of one slot of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
-    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots, first_binned_order):
+    def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+             max_bounces, max_order, resolution, n_slots, first_binned_order, counts, stats, exits,
+             exit_ints):
+        # counts [max_order + 1, resolution**2] and stats [N_STATS]: this slot's rows, zeroed;
+        # exits, exit_ints: its scratch rows (exit_buffers)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
-        counts = order_cell_tally(n_slots, max_order, resolution)
-        stats = np.empty((n_slots, N_STATS), np.int64)  # every column written per slot below
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         lam_i = distributions.smith_lambda(DIST, ix, iy, iz, params)  # the first step's, every path's
-        for slot in prange(n_slots):
-            slot_counts = filled(counts[slot], 0)
-            lost = filled(np.empty(3, np.int64), 0)  # absorbed, truncated, degenerate
-            deepest = 0
-            unbinned = 0
-            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
-            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
-            walk_data = borrowed(facet_data)
-            for b in range(slot, n_blocks, n_slots):
-                state, n_here = block_start(direction_key, first_block, b, n_paths)
-                n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
-                for _ in range(n_here):
-                    state, outcome, k, wx, wy, wz = trace_smith_path(
-                        state, ix, iy, iz, lam_i, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
-                    deepest = max(deepest, k)
-                    if outcome == EXITED:
-                        if k < first_binned_order:
-                            unbinned += 1
-                        else:
-                            exit_x[n_exits] = wx
-                            exit_y[n_exits] = wy
-                            exit_z[n_exits] = wz
-                            exit_row[n_exits] = k if k <= max_order else 0
-                            n_exits += 1
+        deepest = 0
+        unbinned = 0
+        exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers(exits, exit_ints)
+        walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+        walk_data = borrowed(facet_data)
+        for b in range(slot, n_blocks, n_slots):
+            state, n_here = block_start(direction_key, first_block, b, n_paths)
+            n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
+            for _ in range(n_here):
+                state, outcome, k, wx, wy, wz = trace_smith_path(
+                    state, ix, iy, iz, lam_i, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
+                if k > deepest:  # not max(): one integer overload less to compile
+                    deepest = k
+                if outcome == EXITED:
+                    if k < first_binned_order:
+                        unbinned += 1
                     else:
-                        lost[outcome - ABSORBED] += 1
-                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
-                for j in range(n_exits):
-                    slot_counts[exit_row[j], exit_cell[j]] += 1
-            stats[slot, STAT_ABSORBED] = lost[ABSORBED - ABSORBED]
-            stats[slot, STAT_TRUNCATED] = lost[TRUNCATED - ABSORBED]
-            stats[slot, STAT_DEGENERATE] = lost[DEGENERATE - ABSORBED]
-            stats[slot, STAT_MAX_BOUNCES] = deepest
-            stats[slot, STAT_UNBINNED] = unbinned
-        return counts, stats
+                        exit_x[n_exits] = wx
+                        exit_y[n_exits] = wy
+                        exit_z[n_exits] = wz
+                        exit_row[n_exits] = k if k <= max_order else 0
+                        n_exits += 1
+                else:  # the stats' first three columns are in the order of the outcome codes
+                    stats[STAT_ABSORBED + outcome - ABSORBED] += 1
+            bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+            for j in range(n_exits):
+                counts[exit_row[j], exit_cell[j]] += 1
+        stats[STAT_MAX_BOUNCES] = deepest
+        stats[STAT_UNBINNED] = unbinned
 
-    return kernel
+    return walk
 
 
 __all__ = ["get_smith_kernel", "walkable"]

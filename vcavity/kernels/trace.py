@@ -1,7 +1,8 @@
 """The V-groove random walk (physics.md sec. 5), specialised per scene.
 
-``get_kernel(dist_kind, facet_kind, facet_variant)`` returns a jitted, parallel kernel
-closed over three integer constants: the distribution and the facet model (positions in
+``get_kernel(dist_kind, facet_kind, facet_variant)`` returns a kernel whose jitted walk
+(one thread slot's blocks, run on a Python thread per slot:
+:class:`vcavity.kernels.scaffold.SlotKernel`) is closed over three integer constants: the distribution and the facet model (positions in
 their registries, :mod:`vcavity.microfacet.registry`, :mod:`vcavity.facet.registry`) and
 the facet's compiled variant. Each variant contains only the code its scene needs: the
 registries pick the distribution's trig-free groove sampler and the facet's event at
@@ -9,7 +10,7 @@ compile time, so a mirror never draws for Fresnel, ``kd = 0`` never samples the 
 ``eta = 1`` never evaluates Fresnel. Variants are compiled on first use and cached on disk
 (``cache=True``; closures over plain ints are cacheable, closures over dispatchers are
 not, hence integer constants). The path walk, the sampler and the event are each compiled
-apart and inlined by LLVM (:func:`vcavity._numba.dispatch.apart`); the kernel hands them
+apart and inlined by LLVM (:func:`vcavity._numba.dispatch.apart`); the walk hands them
 reference-count-free views of its arrays (:func:`vcavity._numba.arrays.borrowed`).
 
 The kernel is analog: every path has weight 1, so per-cell results are integer counts
@@ -27,9 +28,8 @@ Throughput and compile times: docs/performance.md.
 from __future__ import annotations
 
 import numpy as np
-from numba import prange
 
-from vcavity._numba.arrays import borrowed, filled
+from vcavity._numba.arrays import borrowed
 from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.sensor.binning import bin_block
@@ -37,7 +37,7 @@ from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, enter, leave
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
-                                      exit_buffers, groove_frame, order_cell_tally, sample_groove, to_world)
+                                      exit_buffers, groove_frame, sample_groove, to_world)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import next_uniform
 
@@ -103,7 +103,7 @@ def variants() -> list[tuple[str, str, str]]:
     """Every kernel variant :func:`get_kernel` can build, as (distribution, facet, facet variant) names.
 
     One per registered distribution and facet variant (5 x (1 + 3) = 20 today); each is
-    compiled on first use (about 4 s of CPU, docs/performance.md) and then loaded from
+    compiled on first use (2-3 s of CPU, docs/performance.md) and then loaded from
     Numba's disk cache. The list follows the registries, so a new distribution or facet
     model adds its variants here without edits.
 
@@ -118,9 +118,9 @@ def variants() -> list[tuple[str, str, str]]:
 
 
 def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
-    """The jitted walk for one distribution, facet model and facet variant (built once per process).
+    """The kernel for one distribution, facet model and facet variant (built once per process).
 
-    The returned function has the signature::
+    The returned kernel (a :class:`vcavity.kernels.scaffold.SlotKernel`) is called as::
 
         kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
                max_bounces, max_order, resolution, n_slots, first_binned_order)
@@ -132,66 +132,65 @@ def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     the registries). Blocks ``first_block .. first_block + n_blocks - 1`` of
     ``BLOCK_SIZE`` paths are traced, the last block of the direction being short when
     ``n_paths`` is not a multiple of ``BLOCK_SIZE``. Order slot 0 counts paths with more
-    than ``max_order`` bounces. Slot ``s`` traces blocks ``s, s + n_slots, ...``; results
-    do not depend on ``n_slots`` because blocks own their random streams and counts are
-    integers. Exits after fewer than ``first_binned_order`` bounces are not binned, only
+    than ``max_order`` bounces. Slot ``s`` traces blocks ``s, s + n_slots, ...`` on a
+    thread of its own; results do not depend on ``n_slots`` because blocks own their
+    random streams and counts are integers. Exits after fewer than ``first_binned_order`` bounces are not binned, only
     counted (``stats[:, STAT_UNBINNED]``): the exact-f1 estimator passes 2 and skips the
     binning of the ~90 % of paths that leave after one bounce; their counts row stays 0.
     """
-    return build_kernel("kernel", _make_kernel, dist_kind, facet_kind, facet_variant)
+    return build_kernel("kernel", _make_kernel, dist_kind, facet_kind, facet_variant, 1, N_STATS)
 
 
 def _make_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
-    """The Python walk of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
+    """The Python walk of one slot of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
-    def kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots, first_binned_order):
+    def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
+             max_bounces, max_order, resolution, n_slots, first_binned_order, counts, stats, exits,
+             exit_ints):
+        # counts [max_order + 1, resolution**2] and stats [N_STATS]: this slot's rows, zeroed;
+        # exits, exit_ints: its scratch rows (exit_buffers)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
-        counts = order_cell_tally(n_slots, max_order, resolution)
-        stats = np.empty((n_slots, N_STATS), np.int64)  # every column written per slot below
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
-        for slot in prange(n_slots):
-            slot_counts = filled(counts[slot], 0)
-            absorbed = 0
-            truncated = 0
-            degenerate = 0
-            deepest = 0
-            unbinned = 0
-            exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers()
-            walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
-            walk_data = borrowed(facet_data)
-            for b in range(slot, n_blocks, n_slots):
-                state, n_here = block_start(direction_key, first_block, b, n_paths)
-                n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
-                for _ in range(n_here):
-                    state, outcome, k, wx, wy, wz = trace_path(
-                        state, ix, iy, iz, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
-                    deepest = max(deepest, k)
-                    if outcome == EXITED:
-                        if k < first_binned_order:
-                            unbinned += 1
-                        else:
-                            exit_x[n_exits] = wx
-                            exit_y[n_exits] = wy
-                            exit_z[n_exits] = wz
-                            exit_row[n_exits] = k if k <= max_order else 0
-                            n_exits += 1
-                    elif outcome == ABSORBED:
-                        absorbed += 1
-                    elif outcome == TRUNCATED:
-                        truncated += 1
+        absorbed = 0
+        truncated = 0
+        degenerate = 0
+        deepest = 0
+        unbinned = 0
+        exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers(exits, exit_ints)
+        walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
+        walk_data = borrowed(facet_data)
+        for b in range(slot, n_blocks, n_slots):
+            state, n_here = block_start(direction_key, first_block, b, n_paths)
+            n_exits = np.int64(0)  # not a literal 0: Numba would also compile bin_block for Literal[int](0)
+            for _ in range(n_here):
+                state, outcome, k, wx, wy, wz = trace_path(
+                    state, ix, iy, iz, walk_params, DIST, FACET, VARIANT, walk_data, max_bounces)
+                if k > deepest:  # not max(): one integer overload less to compile
+                    deepest = k
+                if outcome == EXITED:
+                    if k < first_binned_order:
+                        unbinned += 1
                     else:
-                        degenerate += 1
-                bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
-                for j in range(n_exits):
-                    slot_counts[exit_row[j], exit_cell[j]] += 1
-            stats[slot, STAT_ABSORBED] = absorbed
-            stats[slot, STAT_TRUNCATED] = truncated
-            stats[slot, STAT_DEGENERATE] = degenerate
-            stats[slot, STAT_MAX_BOUNCES] = deepest
-            stats[slot, STAT_UNBINNED] = unbinned
-        return counts, stats
+                        exit_x[n_exits] = wx
+                        exit_y[n_exits] = wy
+                        exit_z[n_exits] = wz
+                        exit_row[n_exits] = k if k <= max_order else 0
+                        n_exits += 1
+                elif outcome == ABSORBED:
+                    absorbed += 1
+                elif outcome == TRUNCATED:
+                    truncated += 1
+                else:
+                    degenerate += 1
+            bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
+            for j in range(n_exits):
+                counts[exit_row[j], exit_cell[j]] += 1
+        stats[STAT_ABSORBED] = absorbed
+        stats[STAT_TRUNCATED] = truncated
+        stats[STAT_DEGENERATE] = degenerate
+        stats[STAT_MAX_BOUNCES] = deepest
+        stats[STAT_UNBINNED] = unbinned
 
-    return kernel
+    return walk

@@ -156,7 +156,8 @@ class DaskExecutor:
         A scheduler address (``tcp://host:8786``) or ``local:N`` for a
         ``distributed.LocalCluster`` of N single-threaded worker processes.
     threads_per_task : int
-        Numba threads a unit uses on its worker (default 1: one unit per core).
+        Threads a unit uses on its worker: kernel slots, and the models' Numba threads
+        (default 1: one unit per core).
     in_flight : int, optional
         Units submitted ahead of the one being merged (default 4 per worker thread).
 

@@ -122,7 +122,8 @@ class Simulation:
     config : RunConfig
         The validated run.
     threads : int, optional
-        Numba threads (default: all cores). Does not change the result.
+        Threads (default: all cores): the kernel's slots, one thread each, and the analytic
+        models' Numba threads. Does not change the result.
     chunk_blocks : int, optional
         RNG blocks per kernel call. Does not change the result.
     """

@@ -2,7 +2,7 @@
 
 A kernel variant is one walk (``v-cavity`` or ``smith``) for one distribution, facet model
 and facet variant (:func:`vcavity.kernels.trace.variants`); Numba compiles each on first
-use (4-9 s of CPU each on an idle machine) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
+use (2-3 s of CPU each on an idle machine) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
 compiles named variants ahead of time, for cluster images and Dask workers
 (:func:`compile_variant`); ``vcavity run`` says what it is compiling while it does
 (:class:`CompileNotice`) instead of staying silent.
@@ -118,9 +118,9 @@ def compile_variant(variant: Variant) -> tuple[float, bool]:
     # cached signature is the one a run asks for
     simulation.scene = Scene(dist_kind, params, facet_kind, index, data)
     simulation.kernel = build(dist_kind, facet_kind, index)
-    misses = sum(simulation.kernel.stats.cache_misses.values())  # the dispatcher is shared per process
+    misses = sum(simulation.kernel.walk.stats.cache_misses.values())  # the dispatcher is shared per process
     seconds = simulation.compile()
-    return seconds, sum(simulation.kernel.stats.cache_misses.values()) == misses
+    return seconds, sum(simulation.kernel.walk.stats.cache_misses.values()) == misses
 
 
 class CompileNotice:
