@@ -129,8 +129,8 @@ def test_the_compiled_walks_release_the_gil(build, extra):
     incident = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
     max_order, resolution = 2, 5
     rows = kernel.slot_rows(kernel.outputs(1, max_order, resolution), 0)
-    # slot 0 of 1: 2000 blocks of the direction's paths, a few tenths of a second
-    walk_args = (0, incident, np.uint64(5), 0, 2000, 2000 * 4096, params, facet_data, 50, max_order, resolution, 1,
+    # slot 0 of 1: 400 blocks of the direction's paths, 40-100 ms (a thread wakes in ~0.1 ms)
+    walk_args = (0, incident, np.uint64(5), 0, 400, 400 * 4096, params, facet_data, 50, max_order, resolution, 1,
                  *extra, *rows)
     kernel.walk(*walk_args)  # compiled (or loaded) first
     entered, walk_returned, during = threading.Event(), [False], []
