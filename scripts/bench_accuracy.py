@@ -24,6 +24,7 @@ from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.statistics import binomial_mean_abs_deviation, pearson_chi_square, sidak_threshold
 from vcavity.config import DEFAULT_SENSOR_RESOLUTION, validate
+from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate.pipeline import incident_vector, simulate
 
 FIG7 = {"distribution": "beckmann", "alpha": 0.6, "facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}
@@ -58,11 +59,12 @@ def main() -> None:
     for j, theta in enumerate(args.thetas):
         i = incident_vector(math.radians(theta), 0.0)
         t1 = time.perf_counter()
-        model = cell_integrals(vcavity, i, result.sensor)
-        coarse = cell_integrals(vcavity_coarse, i, result.sensor)
-        smith_cells = cell_integrals(smith, i, result.sensor)
-        smith_hc_cells = cell_integrals(smith_hc, i, result.sensor)
-        observed = result.counts[j, 0].astype(np.float64)
+        sensor = EqualAreaSensor(args.resolution)
+        model = cell_integrals(vcavity, i, sensor)
+        coarse = cell_integrals(vcavity_coarse, i, sensor)
+        smith_cells = cell_integrals(smith, i, sensor)
+        smith_hc_cells = cell_integrals(smith_hc, i, sensor)
+        observed = result["counts"][j, 0].astype(np.float64)
         expected = paths * model
         l1 = np.abs(observed - expected).sum() / expected.sum()
         noise = binomial_mean_abs_deviation(paths, model).sum() / expected.sum()

@@ -41,6 +41,7 @@ import time
 import numpy as np
 
 from vcavity import config as config_mod
+from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate.pipeline import Simulation
 
 MATERIALS = {
@@ -109,20 +110,20 @@ def main(argv=None) -> int:
     curves = {}
     for name, material in materials.items():
         ref, ref_time = _run(material, "exact-f1", None, reference_paths, seed=999)
-        area = np.asarray(ref.sensor.cell_projected_solid_angle)
-        area_sum = {k: np.sum(ref.brdf[0, k] * area) for k in range(3)}
-        ref_noise = {k: math.sqrt(2 / math.pi) * np.sum(ref.brdf_stderr[0, k] * area) / area_sum[k] for k in (0, 2)}
-        f1_model = ref.brdf[0, 1]  # the exact-f1 reference's model, refined to its 1e9-path tolerance
-        print(f"\n{name}: reference {reference_paths:.1e} paths in {ref_time:.1f} s (model {ref.model_time_s:.1f} s), "
+        area = np.asarray(EqualAreaSensor(57).cell_projected_solid_angle)
+        area_sum = {k: np.sum(ref["brdf"][0, k] * area) for k in range(3)}
+        ref_noise = {k: math.sqrt(2 / math.pi) * np.sum(ref["brdf_stderr"][0, k] * area) / area_sum[k] for k in (0, 2)}
+        f1_model = ref["brdf"][0, 1]  # the exact-f1 reference's model, refined to its 1e9-path tolerance
+        print(f"\n{name}: reference {reference_paths:.1e} paths in {ref_time:.1f} s (model {ref.attrs['model_time_s']:.1f} s), "
               f"its expected L1 noise f_inf {ref_noise[0]:.2e}, f2 {ref_noise[2]:.2e}")
         print(f"{'estimator':>18} {'paths':>10} {'time s':>8} {'L1 f1':>9} {'L1 f2':>9} {'L1 f_inf':>9}")
         for label, estimator, fold in estimators:
             rows = []
             for paths in ladder:
                 result, seconds = _run(material, estimator, fold, paths, seed=7, repeat=args.repeat)
-                errors = [_l1(result.brdf[0, 1], f1_model, area)]
+                errors = [_l1(result["brdf"][0, 1], f1_model, area)]
                 for k in (2, 0):  # remove the reference's own noise in quadrature
-                    raw = _l1(result.brdf[0, k], ref.brdf[0, k], area)
+                    raw = _l1(result["brdf"][0, k], ref["brdf"][0, k], area)
                     errors.append(math.sqrt(max(raw * raw - ref_noise[k] ** 2, 0.25 * raw * raw)))
                 rows.append((paths, seconds, *errors))
                 shown = "analytic" if estimator == "exact-f1" else f"{errors[0]:9.2e}"
@@ -143,10 +144,10 @@ def main(argv=None) -> int:
     target = 0.002 / math.sqrt(2 / math.pi)
     result, seconds = _run(material, "exact-f1", None, 2 * 10**9, seed=11, target=target)
     ref, _ = _run(material, "exact-f1", None, reference_paths, seed=999)
-    area = np.asarray(ref.sensor.cell_projected_solid_angle)
-    l1 = _l1(result.brdf[0, 0], ref.brdf[0, 0], area)
-    print(f"\nexact-f1, folded, --target-error {target:.2e} on fig7b at 60 deg: {int(result.paths[0]):,} paths, "
-          f"{seconds:.2f} s wall (model {result.model_time_s:.2f} s), L1 of f_inf vs reference {l1:.2e} "
+    area = np.asarray(EqualAreaSensor(57).cell_projected_solid_angle)
+    l1 = _l1(result["brdf"][0, 0], ref["brdf"][0, 0], area)
+    print(f"\nexact-f1, folded, --target-error {target:.2e} on fig7b at 60 deg: {int(result['paths'][0]):,} paths, "
+          f"{seconds:.2f} s wall (model {result.attrs['model_time_s']:.2f} s), L1 of f_inf vs reference {l1:.2e} "
           f"(reference noise included)")
     if args.plot:
         _plot(curves, args.plot, estimators)
@@ -208,8 +209,8 @@ def _timed(cfg):
 
 def _table_l1(result, reference, area):
     """Energy-weighted relative L1 of f_inf over the whole table (all directions)."""
-    return float(np.sum(np.abs(result.brdf[:, 0] - reference.brdf[:, 0]) * area)
-                 / np.sum(reference.brdf[:, 0] * area))
+    return float(np.sum(np.abs(result["brdf"][:, 0] - reference["brdf"][:, 0]) * area)
+                 / np.sum(reference["brdf"][:, 0] * area))
 
 
 def specular(args) -> dict:
@@ -225,9 +226,9 @@ def specular(args) -> dict:
             continue
         phi = 0.0
         reference, ref_time = _timed(_specular_config(material, "exact", tolerance=1e-3 if args.quick else 1e-4))
-        area = np.asarray(reference.sensor.cell_projected_solid_angle)
+        area = np.asarray(EqualAreaSensor(57).cell_projected_solid_angle)
         print(f"\n{name}, theta_i {', '.join(f'{t:g}' for t in SPECULAR_THETA_DEG)} deg: reference exact table "
-              f"in {ref_time:.1f} s, its relative error estimate {np.nanmax(reference.relative_error):.1e}")
+              f"in {ref_time:.1f} s, its relative error estimate {np.nanmax(reference['relative_error']):.1e}")
         print(f"{'estimator':>10} {'setting':>12} {'time s':>8} {'L1 f_inf':>9} {'estimate':>9}")
         rows_exact, rows_analog = [], []
         for tol in tolerances:
@@ -235,7 +236,7 @@ def specular(args) -> dict:
             l1 = _table_l1(result, reference, area)
             rows_exact.append((tol, seconds, l1))
             print(f"{'exact':>10} {f'tol {tol:.0e}':>12} {seconds:8.2f} {l1:9.2e} "
-                  f"{np.nanmax(result.relative_error):9.2e}")
+                  f"{np.nanmax(result['relative_error']):9.2e}")
         for paths in ladder:
             result, seconds = _timed(_specular_config(material, "analog", paths=paths, phi_deg=phi))
             l1 = _table_l1(result, reference, area)

@@ -38,11 +38,11 @@ raw = {"material": spec["material"],
 sim = Simulation(config_mod.validate(raw), threads=spec["threads"])
 sim.compile()
 result = sim.run()
-deep = result.order.tolist().index(0)
-print(json.dumps({"seconds": result.compute_time_s, "paths": int(result.paths[0]),
+deep = result["order"].tolist().index(0)
+print(json.dumps({"seconds": result.attrs["compute_time_s"], "paths": int(result["paths"][0]),
                   "max_rss_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
-                  "max_bounces_seen": int(result.max_bounces_seen[0]),
-                  "albedo": float(result.albedo[0, deep])}))
+                  "max_bounces_seen": int(result["max_bounces_seen"][0]),
+                  "albedo": float(result["albedo"][0, deep])}))
 """
 
 

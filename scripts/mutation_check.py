@@ -173,7 +173,7 @@ MUTANTS = (
            "    while k < n:\n        k += 1",
            "the body row sum drops the last n mod 8 terms",
            ("tests/analytic/test_single_bounce.py",)),
-    Mutant("f1-refinement-too-loose", "vcavity/simulate/f1_models.py",
+    Mutant("f1-refinement-too-loose", "vcavity/estimators/exact_f1.py",
            "                model.refine_to(tolerance)",
            "                model.refine_to(tolerance * 3)",
            "exact-f1's post-run model refined to 0.3 instead of 0.1 of the statistical error",

@@ -48,7 +48,7 @@ from vcavity.io.table import open_table, write_table
 from vcavity.microfacet import registry as distributions
 from vcavity.parameters import Roughness
 from vcavity.rng import BLOCK_SIZE
-from vcavity.simulate.pipeline import incident_vector, simulate
+from vcavity.simulate.pipeline import Simulation, incident_vector
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # also when imported by the tests
 from stress_f1 import body_escape, clipped_cos_average, f1_reference, reemission_probability  # noqa: E402
@@ -258,25 +258,22 @@ def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
     cfg = validate({"material": case.material,
                     "incidence": {"theta_i_deg": [case.theta_deg], "phi_i_deg": case.phi_deg, "paths": paths},
                     "simulation": {"seed": case_seed(case), "max_order": 3, "max_bounces": CAP}})
-    result = simulate(cfg, threads=threads)
+    sim = Simulation(cfg, threads=threads)
+    result = sim.run()
+    books = dict(zip(sim.estimator.STATS, sim.last_state.stats[0]))  # the direction's integer path counts
     row = Row(case)
     v = row.values
     v.update(paths=paths, nonfinite=-1, book_err=math.nan, truncated=math.nan, degenerate=-1, max_bounces=-1,
              rate=math.nan, f1_sim=math.nan, f1_ref=math.nan, z_f1=math.nan, z_spec=math.nan)
     bad = row.violations.append
-    exits = int(result.counts[0, 0].sum())
-    lost = int(result.absorbed_paths[0] + result.truncated_paths[0] + result.degenerate_paths[0])
+    exits = int(result["counts"][0, 0].sum())
+    lost = int(books["absorbed"] + books["truncated"] + books["degenerate"])
     if exits + lost != paths:  # write_table would refuse the table
         bad(f"books: exits {exits} + lost {lost} != paths {paths}")
         return row
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "stress.h5"
-        write_table(path, theta_i=result.theta_i, phi_i=result.phi_i, order=result.order,
-                    counts=result.counts, paths=result.paths, absorbed_paths=result.absorbed_paths,
-                    truncated_paths=result.truncated_paths, degenerate_paths=result.degenerate_paths,
-                    max_bounces_seen=result.max_bounces_seen, sensor=result.sensor,
-                    material=cfg.material.to_dict(), config=cfg.to_dict(), seed=cfg.seed,
-                    block_size=BLOCK_SIZE, max_bounces=CAP)
+        write_table(path, result)
         table = open_table(path)
     v["nonfinite"] = int(sum(np.count_nonzero(~np.isfinite(a)) for a in (table.brdf, table.brdf_stderr, table.albedo)))
     if v["nonfinite"] or np.any(table.brdf < 0.0):
@@ -287,16 +284,17 @@ def run_case(case: Case, threads: int | None = None, scale: float = 1.0) -> Row:
     if v["book_err"] > 1e-12 or proj_sum > 1e-12:
         bad(f"books: stored fractions sum to 1 + {v['book_err']:.1e}; sum brdf*proj - albedo {proj_sum:.1e}")
     v["truncated"] = float(table.truncated[0])
-    v["degenerate"] = int(result.degenerate_paths[0])
+    v["degenerate"] = int(books["degenerate"])
     v["max_bounces"] = int(table.max_bounces_seen[0])
-    if v["max_bounces"] > CAP or (result.truncated_paths[0] > 0 and v["max_bounces"] != CAP):
+    if v["max_bounces"] > CAP or (books["truncated"] > 0 and v["max_bounces"] != CAP):
         bad(f"cap: max_bounces_seen {v['max_bounces']} with cap {CAP}")
     conserving = _lossless(cfg.material)
-    if conserving and result.absorbed_paths[0] != 0:
-        bad(f"energy: {result.absorbed_paths[0]} paths absorbed with kd = 1 / mirror facets")
+    if conserving and books["absorbed"] != 0:
+        bad(f"energy: {books['absorbed']} paths absorbed with kd = 1 / mirror facets")
     if v["degenerate"]:
         bad(f"degenerate: {v['degenerate']} paths")
-    v["rate"] = paths / result.compute_time_s if result.compute_time_s > 0 else math.inf
+    seconds = result.attrs["compute_time_s"]
+    v["rate"] = paths / seconds if seconds > 0 else math.inf
     f1_ref, f1_err, spec_ref, spec_err = f1_reference(case.material, case.theta_deg, case.phi_deg)
     v["f1_sim"] = float(table.counts[0, k1].sum()) / paths
     v["f1_ref"], v["f1_err"] = f1_ref, f1_err

@@ -36,7 +36,9 @@ import numpy as np
 from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.analytic.single_bounce import SingleBounceModel
-from vcavity.config import Material
+from vcavity.config import Material, validate
+from vcavity.estimators import analog
+from vcavity.estimators.tabulate import tabulate
 from vcavity.io.table import open_table, write_table
 from vcavity.sensor.grid import EqualAreaSensor
 
@@ -60,12 +62,15 @@ def exact_table(path, material, resolution, theta_deg):
     for j, t in enumerate(theta):
         counts[j, 0] = np.round(PATHS * cell_integrals(model, direction(t, 0.0), sensor))
     paths = np.full(theta.size, PATHS)
-    zeros = np.zeros(theta.size, dtype=np.int64)
-    write_table(path, theta_i=theta, phi_i=np.zeros(theta.size), order=[1], counts=counts,
-                paths=paths, absorbed_paths=paths - counts.sum(axis=(1, 2)), truncated_paths=zeros,
-                degenerate_paths=zeros, max_bounces_seen=np.ones(theta.size, dtype=np.int64),
-                sensor=sensor, material=material.to_dict(), config={}, seed=0, block_size=1,
-                max_bounces=1)
+    # the analog estimator's table of these counts: order slot 1 holds them, the rest is absorbed
+    config = validate({"material": material.to_dict(), "incidence": {"theta_i_deg": list(theta_deg), "paths": PATHS},
+                       "simulation": {"max_order": 1, "max_bounces": 1, "track_all_orders": False,
+                                      "sensor_resolution": resolution, "fold_symmetry": False}})
+    tally = np.zeros((theta.size, 1, 2, sensor.n_cells), dtype=np.int64)
+    tally[:, 0, 1] = counts[:, 0]
+    stats = np.zeros((theta.size, len(analog.STATS)), dtype=np.int64)
+    stats[:, analog.STATS.index("absorbed")] = paths - counts.sum(axis=(1, 2))
+    write_table(path, tabulate(config, sensor, analog, tally, stats, paths, block_size=1))
     return open_table(path), model
 
 

@@ -22,6 +22,7 @@ from scipy import stats
 from tests.reference import sensor as ref
 from vcavity.brdf.table_brdf import DirectionNotTabulated, TableBRDF
 from vcavity.io.table import open_table, write_table
+from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
 PATHS = 10**15
@@ -75,10 +76,10 @@ def synthetic(path, f, theta_deg=THETA, phi_deg=PHI, resolution=15, material=ISO
     exits = counts[:, 0].sum(axis=1)
     assert np.all(exits <= PATHS)
     zeros = np.zeros(theta.size, dtype=np.int64)
-    write_table(path, theta_i=theta, phi_i=phi, order=[0, 1], counts=counts,
+    write_table(path, analog_table(theta_i=theta, phi_i=phi, order=[0, 1], counts=counts,
                 paths=np.full(theta.size, PATHS), absorbed_paths=PATHS - exits, truncated_paths=zeros,
                 degenerate_paths=zeros, max_bounces_seen=zeros + 1, sensor=sensor,
-                material=material, config={}, seed=0, block_size=1, max_bounces=1)
+                material=material, config={}, seed=0, block_size=1, max_bounces=1))
     return open_table(path)
 
 

@@ -13,7 +13,7 @@ from vcavity.analytic import ModelNotApplicable
 from vcavity.compare import compare_table, format_report
 from vcavity.config import validate
 from vcavity.io.table import open_table, write_table
-from vcavity.rng import BLOCK_SIZE
+from vcavity.io.schema import TableValue
 from vcavity.simulate.pipeline import simulate
 
 FIG7 = {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5}
@@ -27,11 +27,7 @@ def write_run(path, material, label_material=None, paths=200_000, max_order=2, s
                     "simulation": {"seed": seed, "max_order": max_order, "sensor_resolution": 17}})
     r = simulate(cfg)
     label = validate({"material": label_material}).material if label_material else cfg.material
-    write_table(path, theta_i=r.theta_i, phi_i=r.phi_i, order=r.order, counts=r.counts, paths=r.paths,
-                absorbed_paths=r.absorbed_paths, truncated_paths=r.truncated_paths,
-                degenerate_paths=r.degenerate_paths, max_bounces_seen=r.max_bounces_seen, sensor=r.sensor,
-                material=label.to_dict(), config=cfg.to_dict(), seed=cfg.seed, block_size=BLOCK_SIZE,
-                max_bounces=cfg.effective_max_bounces)
+    write_table(path, TableValue(r.datasets, label.to_dict(), r.attrs))
     return path
 
 
@@ -202,7 +198,7 @@ def test_paper_estimator_table_is_refused_in_one_line(tmp_path, capsys):
     multinomial tests cannot read them (the CLI once printed FAIL with z = -112.6 for a
     0.0006 difference), so it is refused as exact-f1 tables are: one line, exit 2."""
     from tests.io.conftest import MATERIAL, _consistent_run, _write
-    from vcavity.estimators import estimate_weighted
+    from vcavity.estimators.paper import weighted as estimate_weighted
     from vcavity.sensor.grid import EqualAreaSensor
 
     sensor = EqualAreaSensor(5)

@@ -1,4 +1,4 @@
-"""The estimators' arithmetic and the mirror fold (vcavity/estimators.py, physics.md sec. 11).
+"""The estimators' arithmetic and the mirror fold (vcavity/estimators/, physics.md sec. 11).
 
 References are written out here in plain NumPy: the reflection of the cell centres in 3-D
 (not the index arithmetic of ``mirror_cells``) and the binomial formulas of
@@ -10,17 +10,15 @@ import pytest
 from scipy import stats
 
 from vcavity import config as config_mod
-from vcavity.estimators import (
-    ANALYTIC,
-    ANALYTIC_PLUS_SIMULATED,
-    SIMULATED,
-    estimate_direction,
-    has_mirror_symmetry,
-    mirror_cells,
-    order_source,
-    relative_error,
-)
+from vcavity.estimators import registry as estimators
+from vcavity.estimators.counts import ANALYTIC, ANALYTIC_PLUS_SIMULATED, SIMULATED, relative_error
+from vcavity.estimators.counts import binomial as estimate_direction
 from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.sensor.mirror import has_mirror_symmetry, mirror_cells
+
+
+def order_source(orders, estimator):
+    return estimators.get(estimator).order_source(orders)
 
 ALPHA = 1e-3  # false-alarm rate of each chi-square test below
 
@@ -169,7 +167,7 @@ def test_albedo_is_the_sum_of_brdf_times_projected_solid_angle(estimator, phi_de
     """For every order of every estimator, folded or not: albedo = sum_c brdf_c Omega_c,
     what the table's albedo dataset promises (docs/hdf5-format.md) and open_table checks.
     (The exact estimator's tables: tests/simulate/test_exact.py.)"""
-    from vcavity.estimators import estimate_weighted
+    from vcavity.estimators.paper import weighted as estimate_weighted
 
     sensor = EqualAreaSensor(8)
     area = _projected(sensor)
@@ -213,8 +211,8 @@ def test_simulated_counts_are_mirror_symmetric(material, phi_deg):
     mirror map or a broken symmetry (e.g. anisotropy at 45 deg) fails it. The Smith walk has
     the same symmetry, so the fold serves its tables too."""
     result = _run(material, phi_deg, 400_000, seed=11, fold=False)
-    mirror = mirror_cells(result.sensor, phi_deg)
-    counts = result.counts[0, 0]
+    mirror = mirror_cells(EqualAreaSensor(19), phi_deg)
+    counts = result["counts"][0, 0]
     a = np.arange(counts.size)
     first = (mirror > a) & (counts + counts[mirror] >= 20)
     n_a, n_b = counts[first].astype(float), counts[mirror[first]].astype(float)
@@ -227,8 +225,8 @@ def test_anisotropic_counts_are_not_symmetric_at_45_degrees():
     """The test above can fail: an anisotropic material at phi_i = 45 deg has no mirror
     symmetry about its plane of incidence, and the same statistic rejects it."""
     result = _run(ANISO, 45.0, 400_000, seed=11, fold=False)
-    mirror = mirror_cells(result.sensor, 45.0)
-    counts = result.counts[0, 0]
+    mirror = mirror_cells(EqualAreaSensor(19), 45.0)
+    counts = result["counts"][0, 0]
     first = (mirror > np.arange(counts.size)) & (counts + counts[mirror] >= 20)
     n_a, n_b = counts[first].astype(float), counts[mirror[first]].astype(float)
     assert stats.chi2.sf(np.sum((n_a - n_b) ** 2 / (n_a + n_b)), first.sum()) < 1e-6
@@ -241,26 +239,27 @@ def test_folded_table_agrees_with_unfolded_and_has_smaller_errors():
     folded = _run(FIG7B, 0.0, 1_000_000, seed=1, fold=None)
     unfolded_same = _run(FIG7B, 0.0, 1_000_000, seed=1, fold=False)
     unfolded = _run(FIG7B, 0.0, 1_000_000, seed=2, fold=False)
-    assert folded.folded[0] and not unfolded.folded[0]
-    np.testing.assert_array_equal(folded.counts, unfolded_same.counts)  # raw counts unfolded
-    mirror = mirror_cells(folded.sensor, 0.0)
-    busy = (unfolded_same.counts[0, 0] >= 400) & (mirror != np.arange(mirror.size))
-    ratio = folded.brdf_stderr[0, 0, busy] / unfolded_same.brdf_stderr[0, 0, busy]
+    assert folded["folded"][0] and not unfolded["folded"][0]
+    np.testing.assert_array_equal(folded["counts"], unfolded_same["counts"])  # raw counts unfolded
+    sensor = EqualAreaSensor(19)
+    mirror = mirror_cells(sensor, 0.0)
+    busy = (unfolded_same["counts"][0, 0] >= 400) & (mirror != np.arange(mirror.size))
+    ratio = folded["brdf_stderr"][0, 0, busy] / unfolded_same["brdf_stderr"][0, 0, busy]
     assert np.median(ratio) == pytest.approx(1 / np.sqrt(2), rel=0.03)
-    lit = unfolded.counts[0, 0] >= 30
-    sigma = np.hypot(folded.brdf_stderr[0, 0, lit], unfolded.brdf_stderr[0, 0, lit])
-    z = (folded.brdf[0, 0, lit] - unfolded.brdf[0, 0, lit]) / sigma
+    lit = unfolded["counts"][0, 0] >= 30
+    sigma = np.hypot(folded["brdf_stderr"][0, 0, lit], unfolded["brdf_stderr"][0, 0, lit])
+    z = (folded["brdf"][0, 0, lit] - unfolded["brdf"][0, 0, lit]) / sigma
     # pairs share a folded value: count each pair once in the chi-square
     keep = (mirror[lit] >= np.flatnonzero(lit))
     assert stats.chi2.sf(np.sum(z[keep] ** 2), keep.sum()) > ALPHA
-    assert relative_error(folded_estimate(folded), folded.order, folded.sensor.cell_projected_solid_angle) \
-        < 0.75 * unfolded_same.relative_error[0]
+    assert relative_error(folded_estimate(folded), folded["order"], sensor.cell_projected_solid_angle) \
+        < 0.75 * unfolded_same["relative_error"][0]
 
 
-def folded_estimate(result):
-    from vcavity.estimators import DirectionEstimate
+def folded_estimate(table):
+    from vcavity.estimators.counts import DirectionEstimate
 
-    return DirectionEstimate(result.brdf[0], result.brdf_stderr[0], result.albedo[0])
+    return DirectionEstimate(table["brdf"][0], table["brdf_stderr"][0], table["albedo"][0])
 
 
 # --- configuration ------------------------------------------------------------------------
@@ -303,7 +302,7 @@ def test_exact_f1_table_holds_the_model_and_refuses_compare(tmp_path):
     of the analog count), f_inf the model plus the binned orders >= 2, the first-order exits
     are counted, not binned, the table says which orders are analytic, `compare` refuses it."""
     from vcavity.cli import main
-    from vcavity.io.writer import write_result
+    from vcavity.io.writer import write_table
     from vcavity import open_table
 
     material = FIG7B
@@ -314,26 +313,25 @@ def test_exact_f1_table_holds_the_model_and_refuses_compare(tmp_path):
 
     exact = simulate(cfg)
     analog = simulate(config_mod.validate({**raw, "simulation": {**raw["simulation"], "estimator": "analog"}}))
-    area = np.asarray(exact.sensor.cell_projected_solid_angle)
-    n = exact.paths[0]
-    assert np.all(exact.counts[0, 1] == 0)
+    sensor = EqualAreaSensor(15)
+    area = np.asarray(sensor.cell_projected_solid_angle)
+    n = exact["paths"][0]
+    assert np.all(exact["counts"][0, 1] == 0)
     # the same streams: the walk is the analog one, only its first-order exits are not binned
-    f1_analog = analog.counts[0, 1].sum()
-    assert exact.unbinned_paths[0] == f1_analog
-    np.testing.assert_array_equal(exact.counts[0, 2], analog.counts[0, 2])
-    np.testing.assert_array_equal(exact.counts[0, 0], analog.counts[0, 0] - analog.counts[0, 1])
+    f1_analog = analog["counts"][0, 1].sum()
+    assert exact["unbinned_paths"][0] == f1_analog
+    np.testing.assert_array_equal(exact["counts"][0, 2], analog["counts"][0, 2])
+    np.testing.assert_array_equal(exact["counts"][0, 0], analog["counts"][0, 0] - analog["counts"][0, 1])
     p = f1_analog / n
     # the model's f1 albedo against the analog count: binomial z-test, 1e-3
-    assert abs(exact.albedo[0, 1] * n - f1_analog) < 3.3 * np.sqrt(n * p * (1 - p))
-    from vcavity.estimators import mirror_cells
-
-    mirror = mirror_cells(exact.sensor, 0.0)
-    merged = exact.counts[0, 0] + np.where(mirror != np.arange(mirror.size), exact.counts[0, 0][mirror], 0)
+    assert abs(exact["albedo"][0, 1] * n - f1_analog) < 3.3 * np.sqrt(n * p * (1 - p))
+    mirror = mirror_cells(sensor, 0.0)
+    merged = exact["counts"][0, 0] + np.where(mirror != np.arange(mirror.size), exact["counts"][0, 0][mirror], 0)
     halves = np.where(mirror != np.arange(mirror.size), 2.0, 1.0)
-    np.testing.assert_allclose(exact.brdf[0, 0], exact.brdf[0, 1] + merged / (n * halves * area), rtol=1e-12)
-    assert exact.model_error_ratio <= 0.1
+    np.testing.assert_allclose(exact["brdf"][0, 0], exact["brdf"][0, 1] + merged / (n * halves * area), rtol=1e-12)
+    assert exact.attrs["model_error_ratio"] <= 0.1
     path = tmp_path / "exact.h5"
-    write_result(path, exact, cfg)
+    write_table(path, exact)
     table = open_table(path)
     assert table.estimator == "exact-f1" and table.is_analytic(1) and table.is_analytic(0)
     assert not table.is_analytic(2)

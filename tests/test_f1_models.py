@@ -1,13 +1,12 @@
-"""The exact-f1 estimator's per-direction models (vcavity.simulate.f1_models): refined after the run
+"""The exact-f1 estimator's per-direction models (vcavity.estimators.exact_f1.F1Models): refined after the run
 until every cell's quadrature error is within a tenth of its statistical error."""
 
 import numpy as np
 import pytest
 
 from vcavity import config as config_mod
-from vcavity.simulate.f1_models import MODEL_TOLERANCE_FACTOR, F1Models, statistical_error
+from vcavity.estimators.exact_f1 import MODEL_TOLERANCE_FACTOR, F1Models, statistical_error
 from vcavity.sensor.grid import EqualAreaSensor
-from vcavity.simulate.pipeline import incident_vector
 
 
 def _models(paths):
@@ -15,7 +14,12 @@ def _models(paths):
         "material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
         "incidence": {"theta_i_deg": [0.0, 60.0], "paths": paths},
         "simulation": {"estimator": "exact-f1", "sensor_resolution": 7}})
-    return F1Models(cfg, EqualAreaSensor(7), incident_vector)
+    return F1Models(cfg, EqualAreaSensor(7))
+
+
+def _tallies(seen):
+    """Per direction, a tally whose orders >= 2 (plane 0, summed over order slots) are ``seen``."""
+    return [np.asarray(cells)[None, None, :] for cells in seen]
 
 
 def test_statistical_error_is_the_binomial_one_with_a_one_path_floor():
@@ -34,10 +38,10 @@ def test_refine_brings_every_cell_within_a_tenth_of_its_statistical_error(paths)
     models.prepare()
     paths = np.array([paths, paths])
     seen = [np.maximum(models.of(j)[0], 0.0) * paths[j] for j in range(2)]
-    before = models.error_ratio(seen, paths)
+    before = models.error_ratio(_tallies(seen), paths)
     assert before > MODEL_TOLERANCE_FACTOR  # the prepared models are not good enough: refinement is tested
-    models.refine(seen, paths)
-    after = models.error_ratio(seen, paths)
+    models.refine(_tallies(seen), paths)
+    after = models.error_ratio(_tallies(seen), paths)
     assert after <= MODEL_TOLERANCE_FACTOR
     worst = 0.0
     for j in range(2):
@@ -49,5 +53,5 @@ def test_refine_brings_every_cell_within_a_tenth_of_its_statistical_error(paths)
 def test_without_models_nothing_is_refined():
     models = _models(1000)
     assert models.of(0) == (None, None)
-    models.refine([np.zeros(49)], np.array([1e6]))
-    assert models.error_ratio([np.zeros(49)], np.array([1e6])) == 0.0
+    models.refine(_tallies([np.zeros(49)]), np.array([1e6]))
+    assert models.error_ratio(_tallies([np.zeros(49)]), np.array([1e6])) == 0.0

@@ -87,7 +87,7 @@ def test_stretched_slope_is_a_drop_in_for_the_kernel_disk_sampler():
 def test_walk_with_extreme_roughness_has_no_degenerate_path(alpha):
     cfg = validate({"material": {"distribution": "beckmann", "alpha": alpha, "facet": "mirror"},
                     "incidence": {"theta_i_deg": [30.0], "paths": 4096}, "simulation": {"sensor_resolution": 5}})
-    assert simulate(cfg).degenerate_paths[0] == 0
+    assert simulate(cfg)["degenerate"][0] == 0
 
 
 # ----------------------------------------------------------------------------- Fresnel
@@ -231,13 +231,13 @@ def test_walk_is_float64_throughout():
     cfg = validate({"material": {"distribution": "gaussian", "sigma": 0.3, "kd": 0.5, "eta": 1.5},
                     "incidence": {"theta_i_deg": [60.0], "paths": 10}})
     sim = Simulation(cfg, threads=1)
-    kernel, recorded = sim.kernel, {}
+    kernel, recorded = sim.walk.kernel, {}
 
     def record(*args):
         recorded["args"] = args
         return kernel(*args)
 
-    sim.kernel = record
+    sim.walk.kernel = record
     sim.compile()  # records the exact arguments the simulator passes
     args = recorded["args"]
     max_order, resolution = args[8], args[9]

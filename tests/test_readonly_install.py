@@ -29,6 +29,7 @@ import pytest
 from vcavity.io.schema import FORMAT_VERSION
 
 from vcavity.io.table import write_table
+from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
 REPO = Path(__file__).resolve().parents[1]
@@ -57,12 +58,12 @@ def _write_small_table(path):
     counts = np.zeros((1, 2, sensor.n_cells), dtype=np.int64)
     counts[0, 1] = np.arange(sensor.n_cells)  # 300 single-bounce exits
     counts[0, 0] = counts[0, 1] + 1  # plus 25 of higher order
-    write_table(path, theta_i=[0.5], phi_i=[0.0], order=[0, 1], counts=counts, paths=[400],
+    write_table(path, analog_table(theta_i=[0.5], phi_i=[0.0], order=[0, 1], counts=counts, paths=[400],
                 absorbed_paths=[75], truncated_paths=[0], degenerate_paths=[0],
                 max_bounces_seen=[3], sensor=sensor,
                 material={"distribution": "beckmann", "facet": "interfaced_lambertian",
                           "alpha_x": 0.5, "alpha_y": 0.5, "kd": 0.5, "eta": 1.5},
-                config={}, seed=1, block_size=4096, max_bounces=100)
+                config={}, seed=1, block_size=4096, max_bounces=100))
 
 
 # ------------------------------------------------------------------ no Numba for reading

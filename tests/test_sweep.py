@@ -102,8 +102,8 @@ def test_a_point_is_a_plain_run_with_the_documented_seed(swept):
     alone = simulate(cfg, threads=1)
     with xr.open_dataset(out, engine="h5netcdf") as ds:
         assert int(ds.seed.sel(alpha=0.6, eta=1.3)) == seed
-        np.testing.assert_array_equal(ds.counts.sel(alpha=0.6, eta=1.3).values, alone.counts)
-        np.testing.assert_array_equal(ds.brdf.sel(alpha=0.6, eta=1.3).values, alone.brdf)
+        np.testing.assert_array_equal(ds.counts.sel(alpha=0.6, eta=1.3).values, alone["counts"])
+        np.testing.assert_array_equal(ds.brdf.sel(alpha=0.6, eta=1.3).values, alone["brdf"])
         seeds = ds.seed.values.ravel().tolist()
         assert len(set(seeds)) == len(seeds)  # every parameter enters the seed
 

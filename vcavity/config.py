@@ -28,8 +28,8 @@ A run config has four tables::
     max_bounces = 10000            # bounce cap; capped paths are reported as truncated
     track_all_orders = true        # f_inf (order 0); false stops every path after K bounces
     sensor_resolution = 57         # N: N x N equal-solid-angle cells (57 -> 3249)
-    estimator = "analog"           # or "exact-f1": f1 from the microsurface's exact model; "paper";
-                                   # "exact" (specular facets): every order from the model, no path
+    estimator = "analog"           # any registered estimator (estimators/registry.py): "exact-f1",
+                                   # "paper", "exact" (specular facets: every order from the model)
     fold_symmetry = true           # default: fold wherever the mirror symmetry is exact
     target_error = 0.002           # optional: run each direction until this error ...
                                    # (exact: the model's tolerance, default 1e-3)
@@ -48,15 +48,10 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from vcavity.estimators import ANALOG, ESTIMATORS, EXACT, EXACT_F1, has_mirror_symmetry
-from vcavity.facet import registry as facets
-from vcavity.microfacet import registry as distributions
-from vcavity.parameters import ParameterError
+from vcavity.estimators import registry as estimators
+from vcavity.material import ConfigError, Material, fail, validate_material
+from vcavity.sensor.mirror import has_mirror_symmetry
 
-#: The microsurfaces a material can have: V-grooves (the default) or Smith's uncorrelated
-#: heights and slopes, walked by Heitz et al. 2016 (physics.md sec. 5 and 15).
-MICROSURFACES = ("v-cavity", "smith")
-DEFAULT_MICROSURFACE = "v-cavity"
 DEFAULT_PATHS = 10_000_000
 DEFAULT_MAX_ORDER = 3
 # GGX tails make deep grooves common: the truncated share falls like cap^-2 with mirror
@@ -73,60 +68,6 @@ MAX_PATHS = 2**62  # paths and block counts stay far from int64 overflow in the 
 # phi + 360 would be two different tables of one direction, and a typo like 1e300 has no
 # meaningful fractional degrees left.
 MAX_PHI_DEG = 360.0
-
-
-class ConfigError(ValueError):
-    """Invalid run configuration; the message is one line naming field, value, and what is accepted."""
-
-
-@dataclass(frozen=True)
-class Material:
-    """Microsurface: a distribution of V-groove normals and a facet model, each with its
-    own validated parameters (canonical keys, as the registries define them).
-
-    Attributes
-    ----------
-    distribution : str
-        A registered distribution (:mod:`vcavity.microfacet.registry`).
-    facet : str
-        A registered facet model (:mod:`vcavity.facet.registry`).
-    distribution_params : dict
-        Canonical parameter values of the distribution (e.g. ``alpha_x``, ``alpha_y``).
-    facet_params : dict
-        Canonical parameter values of the facet model (e.g. ``kd``, ``eta``; mirror: none).
-    microsurface : str
-        One of :data:`MICROSURFACES`: V-grooves (default) or the Smith microsurface.
-    """
-
-    distribution: str
-    facet: str
-    distribution_params: dict = dataclasses.field(default_factory=dict)
-    facet_params: dict = dataclasses.field(default_factory=dict)
-    microsurface: str = DEFAULT_MICROSURFACE
-
-    @property
-    def isotropic(self) -> bool:
-        """True when the table cannot depend on phi_i."""
-        return distributions.is_isotropic(self.distribution, self.distribution_params)
-
-    def to_dict(self) -> dict[str, Any]:
-        """Flat ``{"distribution", <its parameters>, "facet", <its parameters>}`` (what tables
-        store), with ``"microsurface"`` first when it is not the default V-cavity (so V-cavity
-        tables are what they were before the Smith walk existed)."""
-        surface = {} if self.microsurface == DEFAULT_MICROSURFACE else {"microsurface": self.microsurface}
-        return {**surface, "distribution": self.distribution, **self.distribution_params, "facet": self.facet,
-                **self.facet_params}
-
-    @classmethod
-    def from_dict(cls, values: dict[str, Any], table: str = "material") -> "Material":
-        """Validate a flat material dict (config ``[material]`` or a table's ``/material``).
-
-        Raises
-        ------
-        ConfigError
-            One line naming the field, the value and what is accepted.
-        """
-        return _validate_material(dict(values), table)
 
 
 @dataclass(frozen=True)
@@ -163,7 +104,7 @@ class RunConfig:
     sensor_resolution: int = DEFAULT_SENSOR_RESOLUTION
     output: Path | None = None
     source: str = "<built-in default>"
-    estimator: str = "analog"
+    estimator: str = estimators.default()
     fold_symmetry: bool | None = None
     target_error: float | None = None
     max_paths: int | None = None
@@ -178,7 +119,7 @@ class RunConfig:
         """Whether the table of ``direction`` is folded about its plane of incidence.
 
         ``fold_symmetry`` None (the default) folds wherever the symmetry is exact
-        (:func:`vcavity.estimators.has_mirror_symmetry`); validation refuses ``true``
+        (:func:`vcavity.sensor.mirror.has_mirror_symmetry`); validation refuses ``true``
         for a direction without it.
         """
         if self.fold_symmetry is False:
@@ -228,12 +169,7 @@ class RunConfig:
 # ---------------------------------------------------------------------------------------
 # validation helpers: each returns the clean value or raises a one-line ConfigError
 
-def _fmt(value: Any) -> str:
-    return repr(value)
-
-
-def _fail(field_name: str, value: Any, accepted: str) -> None:
-    raise ConfigError(f"{field_name} = {_fmt(value)}: {accepted}")
+_fail = fail
 
 
 def _number(field_name: str, value: Any) -> float:
@@ -266,7 +202,7 @@ def _check_keys(table_name: str, table: Any, allowed: tuple[str, ...] | None) ->
     for key in table if allowed is not None else ():
         if key not in allowed:
             raise ConfigError(
-                f"{table_name}.{key} = {_fmt(table[key])}: unknown key; accepted keys: {', '.join(allowed)}"
+                f"{table_name}.{key} = {table[key]!r}: unknown key; accepted keys: {', '.join(allowed)}"
             )
     return table
 
@@ -287,51 +223,6 @@ _SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sen
                     "estimator", "fold_symmetry", "target_error", "max_paths")
 _OUTPUT_KEYS = ("path",)
 _TOP_KEYS = ("material", "incidence", "simulation", "output")
-
-
-def _owner_of(key: str) -> str | None:
-    """Which kind of component declares config key ``key`` (for messages), if any."""
-    if any(key in distributions.config_keys(name) for name in distributions.NAMES):
-        return "distribution"
-    if any(key in facets.config_keys(name) for name in facets.NAMES):
-        return "facet"
-    return None
-
-
-def _validate_material(raw: dict, table: str = "material") -> Material:
-    raw = _check_keys(table, raw, None)
-    dist = raw.get("distribution", "beckmann")
-    if dist not in distributions.NAMES:
-        _fail(f"{table}.distribution", dist, f"accepted: {', '.join(distributions.NAMES)}")
-    facet = raw.get("facet", "interfaced_lambertian")
-    if facet not in facets.NAMES:
-        _fail(f"{table}.facet", facet, f"accepted: {', '.join(facets.NAMES)}")
-    surface = raw.get("microsurface", DEFAULT_MICROSURFACE)
-    if surface not in MICROSURFACES:
-        _fail(f"{table}.microsurface", surface, f"accepted: {', '.join(MICROSURFACES)}")
-    if surface == "smith" and distributions.smith_walk_refusal(dist) is not None:
-        _fail(f"{table}.microsurface", surface, f"with distribution {dist!r}: "
-              f"{distributions.smith_walk_refusal(dist)}")
-    dist_keys = distributions.config_keys(dist)
-    facet_keys = facets.config_keys(facet)
-    for key, value in raw.items():
-        if key in ("microsurface", "distribution", "facet") or key in dist_keys or key in facet_keys:
-            continue
-        owner = _owner_of(key)
-        if owner == "distribution":
-            _fail(f"{table}.{key}", value, f"not a parameter of distribution {dist!r} "
-                  f"(it takes: {', '.join(dist_keys) or 'nothing'})")
-        if owner == "facet":
-            _fail(f"{table}.{key}", value, f"not used by facet {facet!r} "
-                  f"(it takes: {', '.join(facet_keys) or 'nothing'})")
-        accepted = ("microsurface", "distribution", *dist_keys, "facet", *facet_keys)
-        _fail(f"{table}.{key}", value, f"unknown key; accepted keys: {', '.join(accepted)}")
-    try:
-        return Material(distribution=dist, facet=facet,
-                        distribution_params=distributions.parse(dist, raw, table),
-                        facet_params=facets.parse(facet, raw, table), microsurface=surface)
-    except ParameterError as exc:
-        raise ConfigError(str(exc)) from None
 
 
 def _validate_incidence(raw: dict) -> tuple[Incidence, ...]:
@@ -364,7 +255,7 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         On any invalid, missing or unknown field (one-line message).
     """
     raw = _check_keys("config", raw, _TOP_KEYS)
-    material = _validate_material(raw.get("material", {}))
+    material = validate_material(raw.get("material", {}))
     incidence = _validate_incidence(raw.get("incidence", {}))
     sim = _check_keys("simulation", raw.get("simulation", {}), _SIMULATION_KEYS)
     seed = _integer("simulation.seed", sim.get("seed", 1), 0, 2**64 - 1)
@@ -379,7 +270,7 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         _fail("simulation.track_all_orders", track, "must be true or false")
     resolution = _integer("simulation.sensor_resolution",
                           _whole(sim.get("sensor_resolution", DEFAULT_SENSOR_RESOLUTION)), 1, MAX_SENSOR_RESOLUTION)
-    estimator, fold, target_error, max_paths = _validate_estimation(sim, material, incidence, track, max_order)
+    estimator, fold, target_error, max_paths = _validate_estimation(sim, material, incidence, track)
     out = _check_keys("output", raw.get("output", {}), _OUTPUT_KEYS)
     output = None
     if out.get("path") is not None:
@@ -390,7 +281,7 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         output = Path(out["path"])
         if base_dir is not None and not output.is_absolute():
             output = base_dir / output
-    return RunConfig(
+    config = RunConfig(
         material=material,
         incidence=incidence,
         seed=seed,
@@ -405,24 +296,15 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         target_error=target_error,
         max_paths=max_paths,
     )
+    estimators.get(estimator).check(config)  # the estimator's own checks (its module says which)
+    return config
 
 
-def _validate_estimation(sim: dict, material: Material, incidence, track: bool, max_order: int):
+def _validate_estimation(sim: dict, material: Material, incidence, track: bool):
     """``estimator``, ``fold_symmetry``, ``target_error``, ``max_paths`` of ``[simulation]``."""
-    estimator = sim.get("estimator", "analog")
-    if estimator not in ESTIMATORS:
-        _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in ESTIMATORS)}")
-    if material.microsurface == "smith" and estimator not in (ANALOG, EXACT_F1):
-        _fail("simulation.estimator", estimator, "is for the v-cavity microsurface (its estimates are "
-              "V-groove models); with material.microsurface = 'smith' use 'analog' or 'exact-f1'")
-    if estimator == EXACT and not facets.is_specular(material.facet, material.facet_params):
-        _fail("simulation.estimator", estimator, "is for specular facets only (mirror, conductor, "
-              "interfaced_lambertian with kd = 0 and eta > 1), whose every order has a deterministic model; "
-              f"this material is {material.facet} with {dict(material.facet_params)}: use 'analog', "
-              "'exact-f1' or 'paper'")
-    if estimator == EXACT_F1 and not track and max_order == 1:
-        _fail("simulation.estimator", estimator, "with max_order = 1 and track_all_orders = false "
-              "every order is analytic and nothing is simulated: use 'analog' or raise max_order")
+    estimator = sim.get("estimator", estimators.default())
+    if not isinstance(estimator, str) or estimators.find(estimator) is None:
+        _fail("simulation.estimator", estimator, f"accepted: {', '.join(repr(e) for e in estimators.names())}")
     fold = sim.get("fold_symmetry")
     if fold is not None and not isinstance(fold, bool):
         _fail("simulation.fold_symmetry", fold, "must be true or false (default: fold wherever "
@@ -448,9 +330,6 @@ def _validate_estimation(sim: dict, material: Material, incidence, track: bool, 
     max_paths = sim.get("max_paths")
     if max_paths is not None:
         max_paths = _integer("simulation.max_paths", _whole(max_paths), 1, MAX_PATHS)
-        if estimator == EXACT:
-            _fail("simulation.max_paths", sim["max_paths"], "does not apply to the exact estimator "
-                  "(it traces no path; simulation.target_error is its model's tolerance)")
         if target_error is None:
             _fail("simulation.max_paths", sim["max_paths"], "applies only with simulation.target_error "
                   "(otherwise incidence.paths is the number of paths)")
@@ -542,3 +421,7 @@ def _as_raw(cfg: RunConfig) -> dict[str, Any]:
     if d["output"]["path"] is None:
         d["output"] = {}
     return d
+
+
+__all__ = ["ConfigError", "DEFAULT_RAW", "Incidence", "Material", "RunConfig", "default_config", "load",
+           "read_toml_text", "validate"]

@@ -1,4 +1,5 @@
-"""Declared parameters of material components: config keys, accepted ranges, defaults, help.
+"""Declared parameters of material components: config keys, accepted ranges, defaults, help;
+the one-line errors of a parameter and of a config value.
 
 Every distribution module (``vcavity/microfacet/``) and facet module (``vcavity/facet/``)
 lists its parameters in a ``PARAMETERS`` tuple of the specs below. The config layer,
@@ -21,6 +22,15 @@ from typing import Any, Mapping
 
 class ParameterError(ValueError):
     """An invalid parameter value; the message is one line (field, value, what is accepted)."""
+
+
+class ConfigError(ValueError):
+    """Invalid run configuration; the message is one line naming field, value, and what is accepted."""
+
+
+def fail(field_name: str, value: Any, accepted: str) -> None:
+    """Raise the one-line :class:`ConfigError` ``field_name = value: accepted``."""
+    raise ConfigError(f"{field_name} = {value!r}: {accepted}")
 
 
 def _number(field_name: str, value: Any, accepted: str) -> float:
@@ -205,4 +215,5 @@ def canonical_keys(specs) -> tuple[str, ...]:
     return tuple(key for spec in specs for key in spec.canonical_keys)
 
 
-__all__ = ["Number", "Roughness", "ParameterError", "parse_parameters", "accepted_keys", "canonical_keys"]
+__all__ = ["ConfigError", "Number", "Roughness", "ParameterError", "accepted_keys", "canonical_keys", "fail",
+           "parse_parameters"]

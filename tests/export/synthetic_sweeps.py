@@ -57,7 +57,8 @@ def synthetic_sweep(path, axes, albedo_of, orders=(0, 1, 2), paths=10_000, estim
              "cell_solid_angle": sensor.cell_solid_angle,
              "cell_projected_solid_angle": sensor.cell_projected_solid_angle}
     attrs = {"seed": np.uint64(seed), "spec": "{}", "spec_digest": "synthetic", "source": "synthetic.toml",
-             "estimator": estimator, "sensor_resolution": np.int64(1), "n_cells": np.int64(1)}
+             "estimator": estimator, "deterministic": np.int64(estimator == "exact"),
+             "sensor_resolution": np.int64(1), "n_cells": np.int64(1)}
     scalars = {} if any(a.name == "phi_i_deg" for a in grid) else {"phi_i_deg": 0.0}
     sweep = SweepData(axes=grid, point_axes=point_axes, order=np.array(orders, np.int64), cells=cells,
                       attrs=attrs, material=dict(material), scalars=scalars)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity.io.table import open_table, write_table
+from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
 PATHS = 10**15
@@ -63,9 +64,9 @@ def synthetic(path, f=lobe, theta_deg=(0, 10, 20, 30, 40, 50, 60, 70, 80, 85), p
     exits = counts[:, 0].sum(axis=1) if orders[0] == 0 else counts.sum(axis=(1, 2))
     assert np.all(exits <= PATHS)
     zeros = np.zeros(theta.size, dtype=np.int64)
-    write_table(path, theta_i=theta, phi_i=phi, order=list(orders), counts=counts,
+    write_table(path, analog_table(theta_i=theta, phi_i=phi, order=list(orders), counts=counts,
                 paths=np.full(theta.size, PATHS), absorbed_paths=PATHS - exits,
                 truncated_paths=zeros, degenerate_paths=zeros, max_bounces_seen=zeros + 1,
                 sensor=sensor, material=material, config={}, seed=0, block_size=1,
-                max_bounces=1, theta_i_deg=theta_deg, phi_i_deg=phi_deg)
+                max_bounces=1, theta_i_deg=theta_deg, phi_i_deg=phi_deg))
     return open_table(path)

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from vcavity.io.table import write_table
+from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
 MATERIAL = {"distribution": "beckmann", "facet": "interfaced_lambertian", "kd": 0.9,
@@ -56,7 +57,7 @@ def _write(path, run, sensor, **overrides):
                      block_size=4096, max_bounces=1000, compute_time_s=1.5,
                      compile_time_s=0.25)
     arguments.update(overrides)
-    write_table(path, **arguments)
+    write_table(path, analog_table(**arguments))
 
 
 @pytest.fixture(scope="session")

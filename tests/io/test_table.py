@@ -73,11 +73,11 @@ def test_user_degrees_are_stored_as_given(tmp_path, sensor, consistent_run, writ
 def test_degrees_must_match_radians(tmp_path, sensor, consistent_run, write):
     run = consistent_run(9, sensor, n_incidence=2)
     good = np.degrees(run["theta_i"])
-    with pytest.raises(ValueError, match="theta_i_deg .* does not match"):
+    with pytest.raises(ValueError, match="dataset 'theta_i_deg' .* must be finite and equal theta_i in degrees"):
         write(tmp_path / "t.h5", run, sensor, theta_i_deg=good + [0.0, 1e-6])
-    with pytest.raises(ValueError, match="phi_i_deg .* does not match"):
+    with pytest.raises(ValueError, match="dataset 'phi_i_deg' .* must be finite and equal phi_i in degrees"):
         write(tmp_path / "t.h5", run, sensor, phi_i_deg=np.degrees(run["phi_i"]) + 360.0)
-    with pytest.raises(ValueError, match=r"theta_i_deg must have shape \(2,\)"):
+    with pytest.raises(ValueError, match=r"dataset 'theta_i_deg' has shape \(1,\), expected \(2,\)"):
         write(tmp_path / "t.h5", run, sensor, theta_i_deg=good[:1])
     assert os.listdir(tmp_path) == []
 
@@ -203,18 +203,23 @@ def test_failed_write_leaves_existing_file_untouched(written, sensor, monkeypatc
     assert os.listdir(path.parent) == [path.name]
 
 
-def test_inconsistent_input_is_rejected_before_writing(tmp_path, sensor, consistent_run, write):
+def test_what_a_reader_refuses_is_not_written(tmp_path, sensor, consistent_run, write):
+    """The writer checks a table value as open_table checks a file (io/checks.py): each
+    defect is a one-line ValueError naming the dataset, and nothing is written."""
     run = consistent_run(11, sensor)
-    leaky = dict(run, absorbed_paths=run["absorbed_paths"] - 1)  # one path unaccounted for
-    with pytest.raises(ValueError, match="!= paths"):
-        write(tmp_path / "t.h5", leaky, sensor)
-    surplus = dict(run, degenerate_paths=run["degenerate_paths"] + 1)
-    with pytest.raises(ValueError, match="exceed paths"):
-        write(tmp_path / "t.h5", surplus, sensor)
-    with pytest.raises(ValueError, match="counts must have shape"):
-        write(tmp_path / "t.h5", dict(run, counts=run["counts"][:, :, :-1]), sensor)
-    with pytest.raises(ValueError, match="order must be"):
-        write(tmp_path / "t.h5", dict(run, order=[0, 2, 3, 4]), sensor)
+    defects = [
+        (run, {"tabulated": {"counts": run["counts"][:, :, :-1]}}, r"dataset 'counts' has shape"),
+        (run, {"tabulated": {"order": [0, 2, 3, 4]}}, "dataset 'order' .* must be 1..K or 0, 1..K"),
+        (dict(run, paths=np.zeros_like(run["paths"])), {}, "dataset 'paths' = 0 .* must be >= 1"),
+        (run, {"tabulated": {"brdf": np.full(run["counts"].shape, np.nan)}}, "dataset 'brdf' = nan"),
+        (run, {"tabulated": {"albedo": 2 * run["counts"].sum(axis=2) / run["paths"][:, None]}}, "dataset 'albedo'"),
+        (run, {"run_attrs": {"deterministic": 1}}, r"dataset 'paths' .* \(a deterministic table traced none\)"),
+        (run, {"run_attrs": {"estimator": ""}}, "attribute 'estimator' = '' .* must name an estimator"),
+    ]
+    for defective, options, match in defects:
+        with pytest.raises(ValueError, match=match) as info:
+            write(tmp_path / "t.h5", defective, sensor, **options)
+        assert "\n" not in str(info.value)
     assert os.listdir(tmp_path) == []
 
 

@@ -1,6 +1,6 @@
 """Tables and sweep files are checked when read: an edited copy of a valid file holding a
 value no run writes (NaN or negated brdf, albedo x10, zeroed solid angles, repeated
-orders, inconsistent angles, fractional counts, an unknown estimator, flags out of range)
+orders, inconsistent angles, fractional counts, a deterministic table with paths, flags out of range)
 is refused by ``open_table`` / ``open_sweep`` with a one-line ``TableFormatError`` naming
 the dataset, and every command reading it exits 2 with that line; valid tables of every
 estimator (built with the estimators' own code, written by write_table) still open.
@@ -17,7 +17,10 @@ import pytest
 from tests.export.synthetic_sweeps import synthetic_sweep
 from tests.io.checksum_reference import reseal
 from vcavity.cli import main
-from vcavity.estimators import estimate_direction, estimate_weighted, mirror_cells, order_source
+from vcavity.estimators import registry as estimators
+from vcavity.estimators.counts import binomial
+from vcavity.estimators.paper import weighted
+from vcavity.sensor.mirror import mirror_cells
 from vcavity.io.checks import TableFormatError
 from vcavity.io.sweep_table import SweepFormatError, open_sweep
 from vcavity.io.table import open_table
@@ -73,8 +76,8 @@ TABLE_DEFECTS = [
     ("phi-i-deg-off", _set("phi_i_deg", lambda a: a + 1.0), "phi_i_deg"),
     ("counts-fractional", _replace("counts", lambda a: a + 0.5), "counts"),
     ("paths-fractional", _replace("paths", lambda a: a + 0.5), "paths"),
-    ("estimator-unknown", _attr("estimator", "magic"), "estimator"),
-    ("estimator-not-its-flags", _attr("estimator", "exact-f1"), "order_source"),
+    ("estimator-not-a-name", _attr("estimator", 5), "estimator"),
+    ("deterministic-with-paths", _attr("deterministic", 1), "paths"),
     ("order-source-3", _first("order_source", 3), "order_source"),
     ("folded-2", _first("folded", 2), "folded"),
     ("target-reached-5", _first("target_reached", 5), "target_reached"),
@@ -152,13 +155,13 @@ def _estimated_table(tmp_path, sensor, write, consistent_run, estimator, fold):
     for j in range(3):
         if estimator == "paper":
             q = rng.integers(0, 1000, run["counts"].shape[1:])
-            e = estimate_weighted(q, q * q, int(run["paths"][j]), 997.0, area, mirror)
+            e = weighted(q, q * q, int(run["paths"][j]), 997.0, area, mirror)
         else:
             f1 = rng.uniform(0, 1, sensor.n_cells) * area / np.pi if estimator == "exact-f1" else None
-            e = estimate_direction(run["counts"][j], int(run["paths"][j]), order, area, mirror,
-                                   f1, None if f1 is None else 1e-3 * f1)
+            e = binomial(run["counts"][j], int(run["paths"][j]), order, area, mirror,
+                         f1, None if f1 is None else 1e-3 * f1)
         brdf[j], stderr[j], albedo[j] = e.brdf, e.brdf_stderr, e.albedo
-    tabulated = {"brdf": brdf, "brdf_stderr": stderr, "albedo": albedo, "order_source": order_source(order, estimator),
+    tabulated = {"brdf": brdf, "brdf_stderr": stderr, "albedo": albedo, "order_source": estimators.get(estimator).order_source(order),
                  "folded": np.full(3, int(fold), np.int8)}
     path = tmp_path / f"{estimator}-{fold}.h5"
     write(path, run, sensor, tabulated=tabulated, run_attrs={"estimator": estimator})
@@ -193,7 +196,7 @@ SWEEP_DEFECTS = [
     ("counts-fractional", _replace("counts", lambda a: a + 0.5), "counts"),
     ("paths-0-where-done", _first("paths", 0), "paths"),
     ("absorbed-nan-where-done", _first("absorbed", np.nan), "absorbed"),
-    ("estimator-unknown", _attr("estimator", "magic"), "estimator"),
+    ("estimator-empty", _attr("estimator", ""), "estimator"),
 ]
 
 

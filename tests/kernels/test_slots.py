@@ -115,7 +115,7 @@ def _mirror_scene(build):
 
 
 @pytest.mark.parametrize("build, extra", [(trace.get_kernel, (1,)), (smith.get_smith_kernel, (1,)),
-                                          (paper.get_paper_kernel, ())],
+                                          (paper.get_paper_kernel, (65536.0,))],
                          ids=["v-groove", "smith", "paper"])
 def test_the_compiled_walks_release_the_gil(build, extra):
     """While this thread is inside a walk, another Python thread runs.
@@ -154,7 +154,7 @@ def test_the_compiled_walks_release_the_gil(build, extra):
 
 
 @pytest.mark.parametrize("build, extra", [(trace.get_kernel, (1,)), (smith.get_smith_kernel, (1,)),
-                                          (paper.get_paper_kernel, ())],
+                                          (paper.get_paper_kernel, (65536.0,))],
                          ids=["v-groove", "smith", "paper"])
 def test_the_tallies_do_not_depend_on_the_slots_even_slots_without_blocks(build, extra):
     """3 blocks (the last one short) on 1, 2, 3 and 5 slots: the same sums; a slot without

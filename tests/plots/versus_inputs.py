@@ -12,6 +12,7 @@ import numpy as np
 
 from vcavity.io.sweep_table import GridAxis, SweepData, write_sweep
 from vcavity.io.table import write_table
+from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
 MATERIAL = {"distribution": "beckmann", "alpha_x": 0.5, "alpha_y": 0.5, "facet": "interfaced_lambertian",
@@ -37,10 +38,10 @@ def random_table(path, theta_deg, seed, material=MATERIAL, resolution=9, orders=
             counts[j, slot] = by_order[k] if k else sum(by_order.values()) + rest
     exits = counts[:, list(orders).index(0)].sum(axis=1)
     zeros = np.zeros(n, dtype=np.int64)
-    write_table(path, theta_i=np.radians(theta_deg), phi_i=np.radians(phi), order=list(orders), counts=counts,
+    write_table(path, analog_table(theta_i=np.radians(theta_deg), phi_i=np.radians(phi), order=list(orders), counts=counts,
                 paths=paths, absorbed_paths=paths - exits, truncated_paths=zeros, degenerate_paths=zeros,
                 max_bounces_seen=zeros + 5, sensor=sensor, material=dict(material), config={}, seed=seed,
-                block_size=1, max_bounces=100, theta_i_deg=theta_deg, phi_i_deg=phi)
+                block_size=1, max_bounces=100, theta_i_deg=theta_deg, phi_i_deg=phi))
     return path
 
 

@@ -1,5 +1,5 @@
 """``estimator = "exact"``: a specular table from the every-order model, no path traced
-(vcavity/simulate/exact.py). What is checked here is the plumbing into a table and the
+(vcavity/estimators/exact.py). What is checked here is the plumbing into a table and the
 refusals; the model itself is tested against independent references in
 tests/analytic/test_specular_orders.py. The one statistical test (an analog table's
 counts against the exact table, in plain NumPy) names its false-positive rate."""

@@ -30,7 +30,7 @@ from tests.reference import materials as ref_materials  # noqa: E402
 
 def run(material: dict, theta_deg, phi_deg, paths: int, resolution: int, seed: int, max_order: int = 1,
         track_all_orders: bool = True, max_bounces: int | None = None):
-    """Simulate one or more incident directions; returns the RunResult."""
+    """Simulate one or more incident directions; returns the table (a TableValue)."""
     thetas = list(theta_deg) if isinstance(theta_deg, (list, tuple)) else [theta_deg]
     phis = list(phi_deg) if isinstance(phi_deg, (list, tuple)) else [phi_deg] * len(thetas)
     sim = {"seed": seed, "max_order": max_order, "track_all_orders": track_all_orders,
@@ -44,10 +44,17 @@ def run(material: dict, theta_deg, phi_deg, paths: int, resolution: int, seed: i
     return simulate(cfg)
 
 
+def sensor_of(result):
+    """The sensor of a simulated table."""
+    from vcavity.sensor.grid import EqualAreaSensor
+
+    return EqualAreaSensor(int(result.attrs["sensor_resolution"]))
+
+
 def order_counts(result, k: int, direction: int = 0) -> np.ndarray:
     """Per-cell counts of order ``k`` (0 = all orders) for one incident direction."""
-    slot = int(np.flatnonzero(result.order == k)[0])
-    return result.counts[direction, slot]
+    slot = int(np.flatnonzero(result["order"] == k)[0])
+    return result["counts"][direction, slot]
 
 
 def incident(theta_deg: float, phi_deg: float) -> np.ndarray:

@@ -27,7 +27,8 @@ if _ROOT not in sys.path:
 
 from tests.reference import materials as ref_mat  # noqa: E402
 from tests.reference import single_bounce as ref_sb  # noqa: E402
-from tests.validation._reference_runs import assert_pass, incident, order_counts, run, sidak_threshold, verdicts  # noqa: E402
+from tests.validation._reference_runs import (assert_pass, incident, order_counts, run, sensor_of,  # noqa: E402
+                                              sidak_threshold, verdicts)
 from vcavity.analytic.cells import cell_integrals  # noqa: E402
 from vcavity.analytic.single_bounce import SingleBounceModel  # noqa: E402
 from vcavity.config import validate  # noqa: E402
@@ -52,7 +53,7 @@ def test_f1_matches_the_vcavity_model(gold_f1):
     cfg = validate({"material": GOLD, "incidence": {"theta_i_deg": [THETA_DEG], "phi_i_deg": PHI_DEG}})
     model = SingleBounceModel(cfg.material, masking="vcavity")
     i = incident_vector(math.radians(THETA_DEG), math.radians(PHI_DEG))
-    chi, z = verdicts(order_counts(gold_f1, 1), cell_integrals(model, i, gold_f1.sensor), PATHS)
+    chi, z = verdicts(order_counts(gold_f1, 1), cell_integrals(model, i, sensor_of(gold_f1)), PATHS)
     assert_pass(chi, z, LEVEL, "blue gold f1 vs SingleBounceModel")
 
 
@@ -71,9 +72,9 @@ def test_every_order_albedo_is_below_the_mirrors():
     thetas, phis = [0.0, 45.0, 75.0], [0.0, 20.0, 60.0]
     gold = run(GOLD, thetas, phis, 100_000, 9, seed=77, max_order=4)
     perfect = run(mirror, thetas, phis, 100_000, 9, seed=77, max_order=4)
-    assert np.array_equal(gold.order, perfect.order) and 0 in gold.order
+    assert np.array_equal(gold["order"], perfect["order"]) and 0 in gold["order"]
     for d in range(len(thetas)):
-        for slot, k in enumerate(gold.order):
-            g, m = gold.counts[d, slot].sum(), perfect.counts[d, slot].sum()
+        for slot, k in enumerate(gold["order"]):
+            g, m = gold["counts"][d, slot].sum(), perfect["counts"][d, slot].sum()
             assert g < m or m == 0, (thetas[d], int(k), int(g), int(m))
-        assert gold.absorbed_paths[d] > 0 and perfect.absorbed_paths[d] == 0
+        assert gold["absorbed"][d] > 0 and perfect["absorbed"][d] == 0

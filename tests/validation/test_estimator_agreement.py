@@ -45,10 +45,10 @@ def test_estimator_agrees_with_analog(name, estimator):
     analog = _run(MATERIALS[name], "analog", seed=101, phi_deg=phi)
     other = _run(MATERIALS[name], estimator, seed=202, phi_deg=phi)
     for k in (0, 2):
-        row = list(analog.order).index(k)
-        lit = analog.counts[0, row] >= 40
+        row = list(analog["order"]).index(k)
+        lit = analog["counts"][0, row] >= 40
         assert lit.sum() >= 40, (name, k)
-        sigma = np.hypot(analog.brdf_stderr[0, row, lit], other.brdf_stderr[0, row, lit])
-        z = (other.brdf[0, row, lit] - analog.brdf[0, row, lit]) / sigma
+        sigma = np.hypot(analog["brdf_stderr"][0, row, lit], other["brdf_stderr"][0, row, lit])
+        z = (other["brdf"][0, row, lit] - analog["brdf"][0, row, lit]) / sigma
         p = stats.chi2.sf(np.sum(z * z), lit.sum())
         assert p > PER_ORDER, (name, estimator, k, lit.sum(), float(np.sum(z * z)))

@@ -24,6 +24,7 @@ from vcavity.analytic.cells import cell_integrals
 from vcavity.analytic.single_bounce import SingleBounceModel
 from vcavity.analytic.statistics import albedo_z_test, pearson_chi_square, sidak_threshold
 from vcavity.config import validate
+from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate.pipeline import incident_vector, simulate
 
 # (id, material, theta_i_deg, phi_i_deg)
@@ -54,8 +55,8 @@ def f1_chi_square(material, theta_deg, phi_deg, paths, resolution, seed):
     result = simulate(cfg)
     model = SingleBounceModel(cfg.material, masking="vcavity")
     incident = incident_vector(math.radians(theta_deg), math.radians(phi_deg))
-    expected = paths * cell_integrals(model, incident, result.sensor)
-    observed = result.counts[0, 0]
+    expected = paths * cell_integrals(model, incident, EqualAreaSensor(resolution))
+    observed = result["counts"][0, 0]
     return (pearson_chi_square(observed, expected, paths),
             albedo_z_test(int(observed.sum()), float(expected.sum()) / paths, paths))
 

@@ -117,7 +117,7 @@ def _f1_albedo_z(mat, theta_deg, exact, paths, seed):
     cfg = validate({"material": mat, "incidence": {"theta_i_deg": [theta_deg], "phi_i_deg": 15.0, "paths": paths},
                     "simulation": {"seed": seed, "max_order": 1, "track_all_orders": False,
                                    "sensor_resolution": 4}})
-    p = simulate(cfg).counts[0, 0].sum() / paths
+    p = simulate(cfg)["counts"][0, 0].sum() / paths
     return (p - exact) / math.sqrt(exact * (1 - exact) / paths)
 
 

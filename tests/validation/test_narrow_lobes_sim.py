@@ -12,7 +12,6 @@ import pytest
 from vcavity.compare import compare_table, format_report
 from vcavity.config import validate
 from vcavity.io.table import open_table, write_table
-from vcavity.rng import BLOCK_SIZE
 from vcavity.simulate.pipeline import simulate
 
 pytestmark = pytest.mark.slow
@@ -38,10 +37,6 @@ def test_compare_passes_where_the_model_used_to_fail(tmp_path, name):
                     "simulation": {"seed": 11, "max_order": 1, "sensor_resolution": 17}})
     r = simulate(cfg)
     path = tmp_path / f"{name}.h5"
-    write_table(path, theta_i=r.theta_i, phi_i=r.phi_i, order=r.order, counts=r.counts, paths=r.paths,
-                absorbed_paths=r.absorbed_paths, truncated_paths=r.truncated_paths,
-                degenerate_paths=r.degenerate_paths, max_bounces_seen=r.max_bounces_seen, sensor=r.sensor,
-                material=cfg.material.to_dict(), config=cfg.to_dict(), seed=cfg.seed, block_size=BLOCK_SIZE,
-                max_bounces=cfg.effective_max_bounces)
+    write_table(path, r)
     report = compare_table(open_table(path))
     assert report.passed, format_report(report)

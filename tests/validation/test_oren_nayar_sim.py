@@ -31,6 +31,7 @@ from vcavity.analytic.statistics import (
     sidak_threshold,
 )
 from vcavity.config import validate
+from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate.pipeline import incident_vector, simulate
 
 THETAS = (0.0, 45.0, 75.0)
@@ -43,14 +44,14 @@ def test_oren_nayar_and_exact_body_against_simulation(sigma):
                     "incidence": {"theta_i_deg": list(THETAS), "phi_i_deg": 0.0, "paths": PATHS},
                     "simulation": {"seed": 9, "max_order": 2, "sensor_resolution": 17}})
     result = simulate(cfg)
-    sensor = result.sensor
+    sensor = EqualAreaSensor(17)
     oren_nayar = OrenNayarModel(cfg.material)
     exact = SingleBounceModel(cfg.material)
     level = sidak_threshold(0.01, 2 * 2 * len(THETAS))
     for j, theta in enumerate(THETAS):
         i = incident_vector(math.radians(theta), 0.0)
-        f1 = result.counts[j, list(result.order).index(1)]
-        f2 = result.counts[j, list(result.order).index(2)]
+        f1 = result["counts"][j, list(result["order"]).index(1)]
+        f2 = result["counts"][j, list(result["order"]).index(2)]
         observed = (f1 + f2) / PATHS
         model = cell_integrals(oren_nayar, i, sensor)
         assert abs(observed.sum() - model.sum()) < 0.04 * model.sum(), (sigma, theta)

@@ -52,7 +52,7 @@ def _pairs(rng, n_pairs, sensor, material, seed):
         "material": material,
         "incidence": {"theta_i_deg": theta.tolist(), "phi_i_deg": phi.tolist(), "paths": PILOT_PATHS},
         "simulation": {"seed": seed + 1_000_003, "max_order": 3, "sensor_resolution": RESOLUTION}}))
-    carries = np.all(pilot.counts > 0, axis=1)  # (source cell, target cell): every order seen
+    carries = np.all(pilot["counts"] > 0, axis=1)  # (source cell, target cell): every order seen
     both_ways = carries & carries.T
     eligible = [(a, b) for a in range(sensor.n_cells) for b in range(a + 1, sensor.n_cells) if both_ways[a, b]]
     assert len(eligible) >= MIN_PAIRS, f"the material links only {len(eligible)} cell pairs in every order"
@@ -72,11 +72,11 @@ def _reciprocity_chi_square(material, n_pairs, paths, seed):
                     "incidence": {"theta_i_deg": theta.tolist(), "phi_i_deg": phi.tolist(), "paths": paths},
                     "simulation": {"seed": seed, "max_order": 3, "sensor_resolution": RESOLUTION}})
     result = simulate(cfg)
-    counts = result.counts.reshape(len(cells), N_SUB * N_SUB, result.order.size, sensor.n_cells)
+    counts = result["counts"].reshape(len(cells), N_SUB * N_SUB, result["order"].size, sensor.n_cells)
     factor = (weights * directions[..., 2])  # w_q cos θ_q, per (cell, node)
     position = {c: k for k, c in enumerate(cells)}
     statistics = {}
-    for slot, order in enumerate(result.order):
+    for slot, order in enumerate(result["order"]):
         z = []
         for a, b in pairs:
             estimates = []

@@ -11,7 +11,7 @@ import pytest
 
 from vcavity import config as config_mod
 from vcavity.compare import compare_order, format_order_report
-from vcavity.io.writer import write_result
+from vcavity.io.writer import write_table
 from vcavity.io.table import open_table
 from vcavity.simulate.pipeline import simulate
 
@@ -49,7 +49,7 @@ def tables(tmp_path_factory):
                 "material": material, "incidence": {"theta_i_deg": thetas, "phi_i_deg": phi, "paths": PATHS},
                 "simulation": {"seed": 20261203, "max_order": 3, "sensor_resolution": 33}})
             path = folder / f"{name}.h5"
-            write_result(path, simulate(cfg), cfg)
+            write_table(path, simulate(cfg))
             made[name] = open_table(path)
         return made[name]
 

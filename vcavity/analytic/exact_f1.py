@@ -77,7 +77,7 @@ def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
 
     Parameters
     ----------
-    material : vcavity.config.Material
+    material : vcavity.material.Material
         Validated material (any registered distribution and facet; a Smith microsurface's
         distribution must have a finite Smith Lambda).
     incident : array_like (3,)
@@ -129,7 +129,7 @@ def _tolerance_array(tolerance, sensor):
 class CellModel:
     """The model of :func:`f1_cell_integrals` kept with its rules, so that it can be refined
     further to a tighter tolerance without recomputing what is done (the exact-f1 estimator
-    refines the pre-run model once the counts are known, :mod:`vcavity.simulate.f1_models`).
+    refines the pre-run model once the counts are known, :class:`vcavity.estimators.exact_f1.F1Models`).
 
     Parameters are those of :func:`f1_cell_integrals`; ``values`` and ``error`` (arrays of
     ``n_cells``) are its two results, updated by :meth:`refine_to`.

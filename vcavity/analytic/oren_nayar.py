@@ -22,7 +22,7 @@ import math
 
 import numpy as np
 
-from vcavity.config import Material
+from vcavity.material import Material
 
 
 def _angles(incident, outgoing):
@@ -85,7 +85,7 @@ class OrenNayarModel:
 
     Parameters
     ----------
-    material : vcavity.config.Material
+    material : vcavity.material.Material
         Must have the ``gaussian`` distribution (``sigma``) and Lambertian facets: a facet
         without a specular part whose body factor is ``K = rho / pi`` (the interfaced
         Lambertian facet with ``eta = 1``, ``rho = kd``).

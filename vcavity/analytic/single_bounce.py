@@ -35,7 +35,7 @@ from vcavity.analytic.terms import (
     smith_lambda,
     table_transmittance,
 )
-from vcavity.config import Material
+from vcavity.material import Material
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 
@@ -226,7 +226,7 @@ class SingleBounceModel:
 
     Parameters
     ----------
-    material : vcavity.config.Material
+    material : vcavity.material.Material
         Its distribution and facet model (through the registries: the facet's
         reflectance, transmittance and body factor, physics.md sec. 4).
     masking : {"vcavity", "smith", "smith-hc"}

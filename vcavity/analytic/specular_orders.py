@@ -432,7 +432,7 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
 
     Parameters
     ----------
-    material : vcavity.config.Material
+    material : vcavity.material.Material
         Validated material whose facets are specular (:func:`is_specular`).
     incident : array_like (3,)
         Unit direction toward the light, ``z > 0``.

@@ -26,7 +26,7 @@ import numpy as np
 
 from vcavity.analytic.single_bounce import ModelNotApplicable
 from vcavity.analytic.terms import smith_lambda_rows
-from vcavity.config import Material
+from vcavity.material import Material
 from vcavity.facet.fresnel import fresnel_dielectric_array
 from vcavity.microfacet import registry as distributions
 
@@ -38,7 +38,7 @@ class WalterDielectric:
 
     Parameters
     ----------
-    material : vcavity.config.Material
+    material : vcavity.material.Material
         Its distribution and the facet's ``eta`` (1 when the facet has none; ``kd`` is
         ignored: a bare interface).
     masking : {"smith", "smith-hc", "vcavity"}

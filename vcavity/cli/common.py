@@ -150,7 +150,7 @@ _RUN_EPILOG_TAIL = """\
                [0, 90), phi_i_deg in [-360, 360]; counts may be written 2e6)
   [simulation] seed = 1   max_order = 3   max_bounces = 10000
                track_all_orders = true   sensor_resolution = 57 (N x N cells)
-               estimator = "analog" | "exact-f1" | "paper"   (default "analog")
+               estimator = {estimators}   (default {default})
                fold_symmetry = true | false   (default: fold wherever exact: isotropic
                  materials at phi_i a multiple of 45 deg, anisotropic at multiples of 90)
                target_error = E   max_paths = N   (optional: run each direction until the
@@ -194,7 +194,11 @@ def run_epilog() -> str:
     lines.append(f"               facet = {' | '.join(repr(n) for n in facets.NAMES)} "
                  "(default 'interfaced_lambertian'), with its parameters:")
     lines += [f"      {line}" for line in facets.help_lines()]
-    return "\n".join(lines) + "\n" + _RUN_EPILOG_TAIL
+    from vcavity.estimators import registry as estimators
+
+    tail = _RUN_EPILOG_TAIL.replace("{estimators}", " | ".join(repr(n) for n in estimators.names())).replace(
+        "{default}", repr(estimators.default()))
+    return "\n".join(lines) + "\n" + tail
 
 
 PATHS_MAX = 2**62  # as config.MAX_PATHS (not imported: that would load the registries)
@@ -281,7 +285,6 @@ BUDGET_FLAGS = {"paths": ("--paths", "incidence.paths"), "seed": ("--seed", "sim
                 "estimator": ("--estimator", "simulation.estimator"),
                 "target_error": ("--target-error", "simulation.target_error"),
                 "max_paths": ("--max-paths", "simulation.max_paths")}
-ESTIMATOR_CHOICES = ("analog", "exact-f1", "paper", "exact")
 
 
 def add_budget_flags(parser: argparse.ArgumentParser) -> None:
@@ -297,13 +300,11 @@ def add_budget_flags(parser: argparse.ArgumentParser) -> None:
                         help="paths per incident direction, e.g. 1e6 (overrides incidence.paths)")
     parser.add_argument("--seed", type=seed_arg, metavar="S",
                         help="random seed, 0 .. 2**64-1 (overrides simulation.seed)")
-    parser.add_argument("--estimator", choices=ESTIMATOR_CHOICES,
-                        help="analog: every order simulated (default); exact-f1: f1 from the exact "
-                        "single-bounce model of the microsurface (V-cavity; height-correlated Smith for "
-                        "microsurface = 'smith'), orders >= 2 simulated; paper: the IL paper's eq. 23 (paths "
-                        "start on a facet, weighted by its lit projected area); exact: specular facets only "
-                        "(mirror, conductor, kd = 0 dielectric): every order from the deterministic model, no "
-                        "path traced, brdf_stderr = the model's error estimate (overrides simulation.estimator)")
+    from vcavity.estimators import registry as estimators
+
+    parser.add_argument("--estimator", choices=estimators.names(),
+                        help="; ".join(f"{module.NAME}: {module.DESCRIPTION}" for module in estimators.MODULES)
+                        + " (overrides simulation.estimator)")
     parser.add_argument("--target-error", type=fraction_arg, metavar="E",
                         help="run each direction until the energy-weighted mean relative standard error of "
                         "f_inf is at most E (e.g. 0.002), checked every 64 blocks of 4096 paths; with "

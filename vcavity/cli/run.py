@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
     from vcavity.config import RunConfig
-    from vcavity.simulate.pipeline import RunResult
+    from vcavity.io.schema import TableValue
 
 NAME = "run"
 
@@ -77,10 +77,10 @@ def add_parser(subparsers) -> None:
 
 
 class Written(NamedTuple):
-    """A finished run: the table's path, the run's result and the config it ran."""
+    """A finished run: the table's path, the table it holds and the config it ran."""
 
     path: Path
-    result: RunResult
+    table: TableValue
     config: RunConfig
 
 
@@ -128,11 +128,14 @@ def simulate(args: argparse.Namespace) -> tuple[int, Written | None]:
     BadInput
         The first check that failed, as its one-line error.
     """
+    import dataclasses
+
     cfg = read_config(args)
     output = preflight(args, cfg)
+    cfg = dataclasses.replace(cfg, output=output.path.resolve())  # the table records where it was written
     sim, state = prepare(args, cfg, output.path)
-    status, result = trace_and_write(args, sim, cfg, output, state)
-    return status, Written(output.path, result, cfg) if status == EXIT_OK else None
+    status, table = trace_and_write(args, sim, cfg, output, state)
+    return status, Written(output.path, table, cfg) if status == EXIT_OK else None
 
 
 def read_config(args: argparse.Namespace) -> RunConfig:
@@ -197,6 +200,7 @@ def preflight(args: argparse.Namespace, cfg):
     """
     import numba
 
+    from vcavity.estimators import registry as estimators
     from vcavity.io import preflight as checks
     from vcavity.io.checkpoint import checkpoint_path, foreign_output
     from vcavity.sensor.grid import EqualAreaSensor
@@ -223,7 +227,8 @@ def preflight(args: argparse.Namespace, cfg):
             except ValueError as exc:
                 raise checks.PreflightError(f"--dask = {args.dask!r}: {exc}") from None
         n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
-        checks.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells)
+        checks.check_memory(cfg, args.threads or numba.config.NUMBA_NUM_THREADS, n_cells,
+                            len(estimators.get(cfg.estimator).TALLIES))
         removed = checks.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
         checks.check_disk_space(out, checks.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
     except checks.PreflightError as exc:
@@ -264,7 +269,7 @@ def prepare(args: argparse.Namespace, cfg, out):
     from vcavity.simulate.warmup import CompileNotice, Variant
 
     sim = Simulation(cfg, threads=args.threads, chunk_blocks=args.chunk_blocks)
-    work = "no path (exact estimator)" if sim.exact else f"{sim.total_paths:,} paths"
+    work = f"no path ({cfg.estimator} estimator)" if sim.walk is None else f"{sim.total_paths:,} paths"
     print(f"vcavity: {cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {sim.threads} thread(s)",
           file=sys.stderr)
     try:
@@ -283,11 +288,8 @@ def prepare(args: argparse.Namespace, cfg, out):
         model_s = sim.prepare_models()
     except ModelNotApplicable as exc:
         raise BadInput(f"--estimator = {cfg.estimator}: {first_line(exc)}") from None
-    if cfg.estimator == "exact-f1":
-        print(f"vcavity: exact f1 model ready in {model_s:.2f} s", file=sys.stderr)
-    if cfg.estimator == "exact":
-        print(f"vcavity: every-order model of {len(cfg.incidence)} direction(s) in {model_s:.2f} s "
-              "(deterministic: no path traced)", file=sys.stderr)
+    if sim.models is not None:
+        print(f"vcavity: {sim.models.ready_line(model_s)}", file=sys.stderr)
     return sim, state
 
 
@@ -309,28 +311,26 @@ def trace_and_write(args: argparse.Namespace, sim, cfg, output, state):
 
     Returns
     -------
-    tuple of (int, RunResult or None)
-        ``EXIT_OK`` and the result, or ``EXIT_INTERRUPTED`` (the driver said what it kept).
+    tuple of (int, TableValue or None)
+        ``EXIT_OK`` and the table written, or ``EXIT_INTERRUPTED`` (the driver said what it kept).
 
     Raises
     ------
     BadInput
         An unusable ``--dask`` address, or a table or checkpoint write that failed.
     """
-    import dataclasses
-
     from vcavity.io.checkpoint import CheckpointWriteError
-    from vcavity.io.writer import write_result
+    from vcavity.io.writer import write_table
     from vcavity.simulate import driver
 
-    if args.dask and cfg.estimator == "exact":
-        raise BadInput(f"--dask = {args.dask!r}: the exact estimator traces no path, there is nothing to distribute")
+    if args.dask and sim.walk is None:
+        raise BadInput(f"--dask = {args.dask!r}: the {cfg.estimator} estimator traces no path, there is nothing "
+                       "to distribute")
     executor = _executor(args.dask) if args.dask else None
     out = output.path
-    cfg = dataclasses.replace(cfg, output=out.resolve())  # the table records where it was written
 
-    def write(result, cancelled):
-        write_result(out, result, cfg, cancelled=cancelled)
+    def write(table, cancelled):
+        write_table(out, table, cancelled=cancelled)
 
     try:
         result = driver.run_to_table(sim, out, write, state=state, checkpoint_every_s=args.checkpoint_every,
@@ -368,22 +368,25 @@ def report(written: Written) -> None:
     written : Written
         The finished run.
     """
+    import numpy as np
+
     from vcavity.io.summary import format_summary
     from vcavity.io.table import open_table
 
-    cfg, result = written.config, written.result
-    traced = int(result.paths.sum())
-    rate = traced / result.compute_time_s if result.compute_time_s > 0 else float("inf")
-    if cfg.target_error is not None and result.target_reached is not None:  # exact: the model's tolerance
-        for d, paths, rel_error, reached in zip(cfg.incidence, result.paths, result.relative_error,
-                                                result.target_reached):
-            state = "reached" if reached else "NOT reached: path cap hit"
+    cfg, table = written.config, written.table
+    traced = int(table["paths"].sum())
+    compute_time_s = table.attrs["compute_time_s"]
+    rate = traced / compute_time_s if compute_time_s > 0 else float("inf")
+    if cfg.target_error is not None and np.all(table["target_reached"] >= 0):  # a model's: its tolerance
+        for d, paths, rel_error, reached in zip(cfg.incidence, table["paths"], table["relative_error"],
+                                                table["target_reached"]):
+            state = "reached" if reached == 1 else "NOT reached: path cap hit"
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
                   f"(error {rel_error:.3g} after {int(paths):,} paths)")
     print(f"wrote {written.path}")
-    if result.estimator == "exact":
-        print(f"model time {result.model_time_s:.2f} s (deterministic table: no path traced)")
+    if table.attrs["deterministic"]:
+        print(f"model time {table.attrs['model_time_s']:.2f} s (deterministic table: no path traced)")
     else:
-        print(f"run time {result.compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
-              f"kernel compile/load {result.compile_time_s:.2f} s")
+        print(f"run time {compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
+              f"kernel compile/load {table.attrs['compile_time_s']:.2f} s")
     print(format_summary(open_table(written.path)))

@@ -154,7 +154,7 @@ def _trace(args, spec, output, data, executor, total) -> int:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
                           executor=executor, on_progress=progress, on_point=lambda point, d: interrupt.check())
         except ModelNotApplicable as exc:
-            return error(f"simulation.estimator = 'exact-f1': {first_line(exc)} "
+            return error(f"simulation.estimator = {spec.points[0].config.estimator!r}: {first_line(exc)} "
                           f"({data.n_done()} point(s) done are in {output.path})")
         except OSError as exc:
             reason = exc.strerror or first_line(exc)

@@ -36,7 +36,7 @@ from vcavity.analytic.statistics import (
     pearson_chi_square,
     sidak_threshold,
 )
-from vcavity.compare.single_bounce import material_of_table
+from vcavity.compare.single_bounce import material_of_table, untestable_counts
 from vcavity.compare.text import angle, fixed, fmt, verdict
 from vcavity.io.schema import order_name
 from vcavity.sensor.directions import incident_vector
@@ -99,9 +99,10 @@ def _check_applicable(table, material, order: int) -> None:
         raise ModelNotApplicable(f"--order {order_name(order)}: not applicable to {material.facet} facets with "
                                  f"{dict(material.facet_params)}: the every-order model needs specular facets "
                                  "(mirror, conductor, interfaced_lambertian with kd = 0 and eta > 1)")
-    if table.estimator not in ("analog", "exact-f1"):
+    if untestable_counts(table) is not None:
         raise ModelNotApplicable(f"--order {order_name(order)}: table {table.path} was made by the "
-                                 f"{table.estimator} estimator: it holds no path counts to test")
+                                 f"{table.estimator} estimator: it holds no path counts to test "
+                                 f"({untestable_counts(table)})")
     try:
         row = table.order_index(order)
     except ValueError as exc:

@@ -47,7 +47,8 @@ from vcavity.analytic.statistics import (
     pearson_chi_square,
     sidak_threshold,
 )
-from vcavity.config import ConfigError, Material
+from vcavity.estimators import registry as estimators
+from vcavity.material import ConfigError, Material
 from vcavity.compare.text import angle, fixed, fmt, verdict
 from vcavity.io.schema import order_name
 from vcavity.sensor.directions import incident_vector
@@ -94,7 +95,7 @@ class ComparisonReport:
 
 
 def material_of_table(table) -> Material:
-    """Rebuild and validate the :class:`~vcavity.config.Material` of a table.
+    """Rebuild and validate the :class:`~vcavity.material.Material` of a table.
 
     Format-v1 tables of mirror facets also stored ``kd = 0`` and ``eta = 1`` (fields
     every material carried then); those are dropped.
@@ -145,6 +146,15 @@ def build_model(material: Material, model: str, n_nodes: int = DEFAULT_BODY_NODE
 EXACT_F1_MODEL = F1_MASKING
 
 
+def untestable_counts(table) -> str | None:
+    """Why the table's counts are not path counts a multinomial test may read (its
+    estimator's ``COUNTS_UNTESTABLE``), or None when they are."""
+    module = estimators.find(table.estimator)
+    if module is None:
+        return f"an estimator this vcavity does not know ({', '.join(estimators.names())} are)"
+    return module.COUNTS_UNTESTABLE
+
+
 def compare_table(table, model: str | None = None, significance: float = DEFAULT_SIGNIFICANCE,
                   n_nodes: int = DEFAULT_BODY_NODES, lambda_fit: bool = False,
                   plots_dir=None) -> ComparisonReport:
@@ -169,14 +179,15 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
     ------
     ModelNotApplicable
         Model not applicable to the table's material, a needed order missing, or a table
-        of the ``paper`` estimator (weighted, no path counts to test).
+        whose estimator leaves no path counts to test (the paper estimator's weighted
+        estimates, the exact estimator's models).
     """
-    if table.estimator == "paper":
-        # Its counts are sums of path weights (IL eq. 23), not path counts: the chi-square
-        # and the albedo z-test below are multinomial and would read them as counts.
-        raise ModelNotApplicable(f"table {table.path} was made by the paper estimator: its f1 is a weighted "
-                                 "estimate, not path counts, and compare's tests need path counts; run with "
-                                 "--estimator analog to validate the walk")
+    # the chi-square and the albedo z-test below are multinomial: they read path counts
+    untestable = untestable_counts(table)
+    if untestable is not None:
+        raise ModelNotApplicable(f"table {table.path} was made by the {table.estimator} estimator: {untestable}, "
+                                 "and compare's tests need path counts; run with --estimator analog to validate "
+                                 "the walk")
     material = material_of_table(table)
     exact = EXACT_F1_MODEL[material.microsurface]
     model = exact if model is None else model

@@ -13,7 +13,7 @@ import numpy as np
 
 from vcavity.export import ExportRefused
 from vcavity.io.schema import order_name
-from vcavity.sweep.albedo import STDERR_RULES, albedo, albedo_stderr, stderr_of
+from vcavity.sweep.albedo import albedo, albedo_stderr, stderr_of
 
 #: Table name of the remainder: E (f_inf) minus the listed finite orders.
 REST = "rest"
@@ -79,7 +79,7 @@ def albedo_tables(sweep, specs, grid, average, average_stderr, shown: str) -> di
             values[name] = values[""] - np.sum(finite, axis=0)
             # a fraction of independent paths where the estimator makes E one (analog, and
             # exact-f1 beyond order 1): the binomial rule of a simulated order
-            errors[name] = stderr_of(estimator, 2, values[name], None, paths) if estimator in STDERR_RULES else None
+            errors[name] = stderr_of(estimator, 2, values[name], None, paths)
             continue
         values[name] = grid(albedo(sweep, order))
         if not np.all(np.isfinite(values[name])):

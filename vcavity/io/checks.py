@@ -1,21 +1,26 @@
 """Checks of what a table or sweep file holds, made when it is read (plain NumPy).
 
 A file edited by hand or damaged on the way (NaN or negated ``brdf``, a scaled
-``albedo``, zeroed solid angles, repeated orders, fractional counts, an unknown estimator,
+``albedo``, zeroed solid angles, repeated orders, fractional counts, flags out of range,
 a sweep's ``done`` flag out of range) must not be read as a table: every consumer
 (``info``, ``compare``, ``plot``, ``export``, ``sweep --resume``, the table API) would
 report or export nonsense. :func:`vcavity.io.table.open_table` and
 :func:`vcavity.io.sweep_table.open_sweep` refuse such a file with a one-line
 :class:`TableFormatError` naming the dataset; the checks below are the ones that are cheap
 (one pass over each array, no model, no simulation), and they only refuse values that no
-writer of vcavity produces (writer.py and estimators.py).
+run of vcavity produces. The writer (writer.py) makes the same checks of a table before it
+writes one (:func:`check_table`): what vcavity writes, it reads.
+
+The checks know no estimator by name: what a table's ``estimator`` attribute means is the
+estimators' business (:mod:`vcavity.estimators.registry`), which the consumers that need
+it ask; a table is checked by what it says of itself (``deterministic``, its flags).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-from vcavity.estimators import ESTIMATORS, EXACT, order_source
+from vcavity.io.schema import DATASETS
 from vcavity.sensor.grid import EqualAreaSensor
 
 #: Rounding allowance of ``albedo`` against ``Σ_c brdf Ω⊥_c``. The writers compute both from
@@ -111,18 +116,20 @@ def check_orders(order: np.ndarray, location) -> None:
                                                 f"found {order.tolist()}")
 
 
-def check_estimator(estimator, order: np.ndarray, flags, location) -> None:
-    """A known estimator whose ``order_source`` flags (when stored) are its own."""
-    if not isinstance(estimator, str) or estimator not in ESTIMATORS:
-        raise TableFormatError(f"attribute 'estimator' = {estimator!r} in {location}: must be one of "
-                               f"{', '.join(ESTIMATORS)}")
-    if flags is not None:
-        expected = order_source(order, estimator)
-        found = _first_bad(np.asarray(flags) != expected, np.asarray(flags))
+def check_estimator_name(estimator, location) -> None:
+    """The ``estimator`` attribute names one (what it means is the estimators' to say)."""
+    if not isinstance(estimator, str) or not estimator:
+        raise TableFormatError(f"attribute 'estimator' = {estimator!r} in {location}: must name an estimator")
+
+
+def check_order_source(flags, deterministic: bool, location) -> None:
+    """A deterministic table (a model's) has every order analytic (flag 1)."""
+    if deterministic:
+        flags = np.asarray(flags)
+        found = _first_bad(flags != 1, flags)
         if found is not None:
             refuse("order_source", found[0], found[1], location,
-                   f"must be {expected.tolist()} for estimator {estimator!r} (0 simulated, 1 analytic, "
-                   "2 analytic f1 plus simulated)")
+                   "must be 1 (analytic) for every order of a deterministic table")
 
 
 def check_albedo(brdf: np.ndarray, albedo: np.ndarray, area: np.ndarray, location, mask=None) -> None:
@@ -190,10 +197,9 @@ def check_sweep(sweep, radians: dict, location) -> None:
         How messages name the file.
     """
     check_orders(np.asarray(sweep.order), location)
-    estimator = sweep.attrs.get("estimator", "analog")
-    if not isinstance(estimator, str) or estimator not in ESTIMATORS:
-        raise TableFormatError(f"attribute 'estimator' = {estimator!r} in {location}: must be one of "
-                               f"{', '.join(ESTIMATORS)}")
+    check_estimator_name(sweep.attrs.get("estimator", "analog"), location)
+    # sweeps written before the attribute: 0 paths are a model's points (estimator exact)
+    deterministic = sweep.attrs.get("deterministic")
     _check_sweep_sensor(sweep, location)
     _check_sweep_angles(sweep, radians, location)
     done = sweep.data["done"]
@@ -203,9 +209,13 @@ def check_sweep(sweep, radians: dict, location) -> None:
     direction = np.broadcast_to(direction, sweep.shape)
     per_order, per_cell = direction[..., None], direction[..., None, None]
     data = sweep.data
-    check_where("paths", data["paths"], data["paths"] == 0 if estimator == EXACT else data["paths"] >= 1,
-                location, "must be 0 (estimator exact traces none)" if estimator == EXACT
-                else "must be >= 1 where the point is done", direction)
+    if deterministic is None:
+        good, accepted = data["paths"] >= 0, "must be >= 0 where the point is done"
+    elif deterministic:
+        good, accepted = data["paths"] == 0, "must be 0 (a deterministic sweep traces none)"
+    else:
+        good, accepted = data["paths"] >= 1, "must be >= 1 where the point is done"
+    check_where("paths", data["paths"], good, location, accepted, direction)
     for name in ("counts", "unbinned_paths", "max_bounces_seen"):
         check_where(name, data[name], data[name] >= 0, location, "must be >= 0")
     for name in ("folded", "target_reached"):
@@ -255,6 +265,88 @@ def _check_sweep_angles(sweep, radians: dict, location) -> None:
                           location, companion)
 
 
-__all__ = ["ALBEDO_RTOL", "FLAG_VALUES", "TableFormatError", "check_albedo", "check_close", "check_degrees", "check_estimator",
-           "check_flags", "check_integer", "check_non_negative", "check_numeric", "check_orders", "check_sensor_datasets", "check_sweep",
-           "check_where", "refuse"]
+def attribute_value(value):
+    """An HDF5 attribute as a Python value (bytes decoded, NumPy scalars unwrapped)."""
+    if isinstance(value, bytes):
+        return value.decode("utf-8")
+    if isinstance(value, (np.generic, np.ndarray)):
+        return value.tolist()
+    return value
+
+
+def check_shapes(data: dict, n_cells: int, location) -> None:
+    """Each dataset has the shape of its axes (:data:`vcavity.io.schema.DATASETS`)."""
+    sizes = {"incidence": data["theta_i"].size, "order": data["order"].size, "cell": n_cells, "xyz": 3}
+    for name, array in data.items():
+        expected = tuple(sizes[axis] for axis in DATASETS[name][0])
+        if array.shape != expected:
+            raise TableFormatError(f"dataset '{name}' has shape {array.shape}, expected {expected} in {location}")
+
+
+def sensor_of(root, cell_center: np.ndarray, location) -> EqualAreaSensor:
+    """The sensor that root attributes ``root`` name, checked to reproduce the stored cell centres."""
+    # An N x N sensor has N^2 cells: bounding N by the stored cell count keeps a corrupt
+    # attribute from building a huge sensor before the comparison below refuses it.
+    resolution = int_attribute(root, "sensor_resolution", location, 1, cell_center.shape[0])
+    sensor = EqualAreaSensor(resolution)
+    partition = attribute_value(root["sensor_partition"])
+    if partition != sensor.partition:
+        raise TableFormatError(f"table uses sensor partition '{partition}', this vcavity "
+                               f"provides '{sensor.partition}' in {location}")
+    if sensor.n_cells != cell_center.shape[0] or not np.allclose(
+            sensor.cell_center, cell_center, rtol=0.0, atol=1e-12):
+        raise TableFormatError(f"sensor of resolution {resolution} does not reproduce the "
+                               f"stored cell centres in {location}")
+    return sensor
+
+
+def int_attribute(root, name: str, location, lo: int, hi: int | None = None) -> int:
+    """Root attribute ``name`` as an int in ``[lo, hi]``, or a one-line TableFormatError."""
+    value = attribute_value(root[name])
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
+        accepted = f"an integer >= {lo}" + (f" and <= {hi}" if hi is not None else "")
+        raise TableFormatError(f"attribute '{name}' = {value!r} in {location}: must be {accepted}")
+    return value
+
+
+def check_values(data: dict, location, deterministic: bool = False) -> None:
+    """Refuse values no run writes (the reader and the writer both ask); a deterministic
+    table (a model's: no path traced) has 0 paths."""
+    for name in ("paths", "counts", "max_bounces_seen", "unbinned_paths"):
+        if name in data:
+            check_integer(name, data[name], location)
+    for name, good, accepted in (
+            ("paths", (lambda a: a == 0) if deterministic else (lambda a: a >= 1),
+             "must be 0 (a deterministic table traced none)" if deterministic
+             else "must be >= 1 (every direction traced paths)"),
+            ("counts", lambda a: a >= 0, "must be >= 0"),
+            ("max_bounces_seen", lambda a: a >= 0, "must be >= 0"),
+            ("unbinned_paths", lambda a: a >= 0, "must be >= 0"),
+            ("theta_i", lambda a: (a >= 0.0) & (a <= 0.5 * np.pi), "must be in [0, pi/2] rad"),
+            ("phi_i", np.isfinite, "must be finite")):
+        if name in data:
+            check_numeric(name, data[name], location)
+            with np.errstate(invalid="ignore"):
+                check_where(name, data[name], good(data[name]), location, accepted)
+    check_orders(data["order"], location)
+    for name in ("brdf", "brdf_stderr", "albedo", "cell_solid_angle", "cell_projected_solid_angle"):
+        check_non_negative(name, data[name], location)
+    for name in ("absorbed", "truncated", "degenerate"):  # fractions of paths (or of energy)
+        check_non_negative(name, data[name], location, upper=1.0)
+    for name in ("theta_i_deg", "phi_i_deg"):  # v2 and later: the degrees the config gave
+        if name in data:
+            check_degrees(name, data[name], data[name.removesuffix("_deg")], location,
+                                 name.removesuffix("_deg"))
+    for name in ("order_source", "folded", "target_reached"):
+        if name in data:
+            check_flags(name, data[name], location)
+    if "relative_error" in data:  # NaN without f_inf, inf while nothing exited
+        with np.errstate(invalid="ignore"):
+            check_where("relative_error", data["relative_error"],
+                               ~(data["relative_error"] < 0), location, "must be >= 0 or NaN")
+    check_albedo(data["brdf"], data["albedo"], data["cell_projected_solid_angle"], location)
+
+
+__all__ = ["ALBEDO_RTOL", "FLAG_VALUES", "TableFormatError", "check_albedo", "check_close", "check_degrees", "check_estimator_name", 
+           "check_flags", "check_integer", "check_non_negative", "check_numeric", "check_order_source", "check_orders", "check_sensor_datasets",
+           "check_shapes", "check_sweep", "check_values", "attribute_value", "check_where", "int_attribute", "refuse", "sensor_of"]

@@ -235,7 +235,7 @@ def available_memory() -> int | None:
     return available
 
 
-def check_memory(config, threads: int, n_cells: int) -> int:
+def check_memory(config, threads: int, n_cells: int, tallies: int = 1) -> int:
     """Refuse a run whose arrays cannot fit in memory; return the estimate (bytes).
 
     Parameters
@@ -245,13 +245,14 @@ def check_memory(config, threads: int, n_cells: int) -> int:
         Threads the run uses (one tally per kernel slot, a slot per thread).
     n_cells : int
         Sensor cells (``sensor_resolution`` squared).
+    tallies : int
+        Tally planes per slot (the estimator's: analog 1, paper 3).
 
     Raises
     ------
     PreflightError
         Naming ``simulation.sensor_resolution`` and ``max_order``, with the figure.
     """
-    tallies = 3 if config.estimator == "paper" else 1
     needed = run_memory_bytes(len(config.incidence), len(config.orders), config.max_order, n_cells,
                               threads, tallies)
     available = available_memory()

@@ -21,6 +21,9 @@ had no degree or outgoing angles; it is still read (:data:`V1_DATASETS`).
 
 from __future__ import annotations
 
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
 FORMAT_NAME = "vcavity-brdf-table"
 FORMAT_VERSION = 3
 #: Versions open_table reads.
@@ -218,3 +221,39 @@ def coordinates_attribute(name: str) -> str | None:
     axes = DATASETS[name][0]
     names = [c for axis in axes for c in AUXILIARY_COORDINATES.get(axis, ())]
     return " ".join(names) or None
+
+
+#: Dtype of each dataset of a format-3 table as the writer stores it (the others float64).
+DTYPES = {"incidence": "int64", "order": "int64", "cell": "int64", "xyz": "S1", "counts": "int64",
+          "paths": "int64", "max_bounces_seen": "int64", "unbinned_paths": "int64", "order_source": "int8",
+          "folded": "int8", "target_reached": "int8"}
+
+
+@dataclass(frozen=True)
+class TableValue:
+    """One table as :func:`vcavity.io.writer.write_table` stores it, under the schema's names.
+
+    An estimator makes it (:func:`vcavity.estimators.tabulate.tabulate`); the writer checks
+    it as a reader would and writes it, computing nothing.
+
+    Attributes
+    ----------
+    datasets : mapping of str to ndarray
+        Every dataset of :data:`DATASETS`, with the dtype of :data:`DTYPES` (float64 else).
+    material : mapping of str to scalar
+        The ``/material`` attributes (``Material.to_dict()``; None values are omitted).
+    attrs : mapping of str to scalar
+        The root attributes a run gives (docs/hdf5-format.md), in the order written; the
+        writer adds the format's own (``format``, ``format_version``, ``description``,
+        ``conventions``, ``vcavity_version``, ``created_utc``) before them. ``config`` is
+        a dict, stored as JSON.
+    """
+
+    datasets: Mapping[str, Any]
+    material: Mapping[str, Any] = field(default_factory=dict)
+    attrs: Mapping[str, Any] = field(default_factory=dict)
+
+    def __getitem__(self, name: str):
+        """The dataset ``name``."""
+        return self.datasets[name]
+

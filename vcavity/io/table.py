@@ -17,13 +17,12 @@ import os
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
-from typing import Any
 
 import h5py
 import numpy as np
 
 from vcavity.io import checks
-from vcavity.io.checks import TableFormatError
+from vcavity.io.checks import TableFormatError, attribute_value
 from vcavity.io.schema import (
     DATASETS,
     FORMAT_NAME,
@@ -178,14 +177,6 @@ class Table:
         return self.interpolant.albedo(wi, order)
 
 
-def _python_value(value) -> Any:
-    if isinstance(value, bytes):
-        return value.decode("utf-8")
-    if isinstance(value, (np.generic, np.ndarray)):
-        return value.tolist()
-    return value
-
-
 def open_table(path) -> Table:
     """Read a vcavity BRDF table (format v3, v2 or v1) into memory.
 
@@ -208,7 +199,7 @@ def open_table(path) -> Table:
         no run writes (:func:`_check_values`: NaN or negative BRDF values, an albedo that
         is not the sum of ``brdf`` x projected solid angle, sensor datasets that are not
         the sensor's, repeated or unsorted orders, degrees that are not the radians,
-        fractional counts, an unknown estimator, flags out of range).
+        fractional counts, flags out of range).
     """
     location = Path(os.fspath(path))
     if not location.exists():
@@ -227,12 +218,12 @@ def open_table(path) -> Table:
 
 def _read(h5: h5py.File, location: Path) -> Table:
     root = h5.attrs
-    if _python_value(root.get("format")) != FORMAT_NAME:
+    if attribute_value(root.get("format")) != FORMAT_NAME:
         raise TableFormatError(f"not a vcavity table: {location}")
     for name in ("format_version",) + REQUIRED_ROOT_ATTRS:
         if name not in root:
             raise TableFormatError(f"missing attribute '{name}' in {location}")
-    version = _python_value(root["format_version"])
+    version = attribute_value(root["format_version"])
     if version not in READABLE_VERSIONS:
         readable = ", ".join(str(v) for v in READABLE_VERSIONS)
         raise TableFormatError(f"unsupported format_version {version} in {location} "
@@ -246,29 +237,24 @@ def _read(h5: h5py.File, location: Path) -> Table:
         raise TableFormatError(f"missing group 'material' in {location}")
 
     data = {name: h5[name][()] for name in names if name not in ("incidence", "cell", "xyz")}
-    sizes = {"incidence": data["theta_i"].size, "order": data["order"].size,
-             "cell": _int_attribute(root, "n_cells", location, 1), "xyz": 3}
-    for name, array in data.items():
-        expected = tuple(sizes[axis] for axis in DATASETS[name][0])
-        if array.shape != expected:
-            raise TableFormatError(f"dataset '{name}' has shape {array.shape}, expected "
-                                   f"{expected} in {location}")
-    seed = _int_attribute(root, "seed", location, 0, 2**64 - 1)
+    checks.check_shapes(data, checks.int_attribute(root, "n_cells", location, 1), location)
+    seed = checks.int_attribute(root, "seed", location, 0, 2**64 - 1)
     try:
-        config = json.loads(_python_value(root["config"]))
+        config = json.loads(attribute_value(root["config"]))
     except (TypeError, ValueError) as exc:
         raise TableFormatError(f"attribute 'config' is not valid JSON in {location}") from exc
-    sensor = _rebuild_sensor(root, data["cell_center"], location)
+    sensor = checks.sensor_of(root, data["cell_center"], location)
     checks.check_sensor_datasets(data, sensor, location)
-    _check_values(data, location, deterministic=bool(_python_value(root.get("deterministic", 0))))
+    deterministic = bool(attribute_value(root.get("deterministic", 0)))
+    checks.check_values(data, location, deterministic)
     if version >= 3:
-        checks.check_estimator(_python_value(root.get("estimator", "analog")), data["order"],
-                               data["order_source"], location)
+        checks.check_estimator_name(attribute_value(root.get("estimator", "analog")), location)
+        checks.check_order_source(data["order_source"], deterministic, location)
     if version == 1:  # v1 had no degrees and no outgoing angles: derive them
         data.update(theta_i_deg=np.degrees(data["theta_i"]), phi_i_deg=np.degrees(data["phi_i"]),
                     theta_o=np.array(sensor.cell_theta), phi_o=np.array(sensor.cell_phi))
     if version < 3:  # before the estimators: analog, unfolded, no target
-        n_i, n_k = sizes["incidence"], sizes["order"]
+        n_i, n_k = data["theta_i"].size, data["order"].size
         data.update(order_source=np.zeros(n_k, np.int8), unbinned_paths=np.zeros(n_i, np.int64),
                     folded=np.zeros(n_i, np.int8), relative_error=np.full(n_i, np.nan),
                     target_reached=np.full(n_i, -1, np.int8))
@@ -276,79 +262,14 @@ def _read(h5: h5py.File, location: Path) -> Table:
         array.setflags(write=False)
     return Table(
         path=location, sensor=sensor,
-        material={key: _python_value(value) for key, value in h5["material"].attrs.items()
+        material={key: attribute_value(value) for key, value in h5["material"].attrs.items()
                   if key != "description"},
         config=config, seed=seed, format_version=int(version),
-        vcavity_version=str(_python_value(root["vcavity_version"])),
-        attrs={key: _python_value(value) for key, value in root.items()
+        vcavity_version=str(attribute_value(root["vcavity_version"])),
+        attrs={key: attribute_value(value) for key, value in root.items()
                if key not in ROOT_ATTRS_AS_FIELDS},
         **data,
     )
-
-
-def _rebuild_sensor(root, cell_center: np.ndarray, location: Path) -> EqualAreaSensor:
-    """Rebuild the run's sensor and check that it reproduces the stored cell centres."""
-    # An N x N sensor has N^2 cells: bounding N by the stored cell count keeps a corrupt
-    # attribute from building a huge sensor before the comparison below refuses it.
-    resolution = _int_attribute(root, "sensor_resolution", location, 1, cell_center.shape[0])
-    sensor = EqualAreaSensor(resolution)
-    partition = _python_value(root["sensor_partition"])
-    if partition != sensor.partition:
-        raise TableFormatError(f"table uses sensor partition '{partition}', this vcavity "
-                               f"provides '{sensor.partition}' in {location}")
-    if sensor.n_cells != cell_center.shape[0] or not np.allclose(
-            sensor.cell_center, cell_center, rtol=0.0, atol=1e-12):
-        raise TableFormatError(f"sensor of resolution {resolution} does not reproduce the "
-                               f"stored cell centres in {location}")
-    return sensor
-
-
-def _int_attribute(root, name: str, location: Path, lo: int, hi: int | None = None) -> int:
-    """Root attribute ``name`` as an int in ``[lo, hi]``, or a one-line TableFormatError."""
-    value = _python_value(root[name])
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo or (hi is not None and value > hi):
-        accepted = f"an integer >= {lo}" + (f" and <= {hi}" if hi is not None else "")
-        raise TableFormatError(f"attribute '{name}' = {value!r} in {location}: must be {accepted}")
-    return value
-
-
-def _check_values(data: dict, location: Path, deterministic: bool = False) -> None:
-    """Refuse values no run writes (writer.py checks the same before writing; module
-    :mod:`vcavity.io.checks`); a deterministic table (the model's, estimator ``exact``)
-    has 0 paths."""
-    for name in ("paths", "counts", "max_bounces_seen", "unbinned_paths"):
-        if name in data:
-            checks.check_integer(name, data[name], location)
-    for name, good, accepted in (
-            ("paths", (lambda a: a == 0) if deterministic else (lambda a: a >= 1),
-             "must be 0 (a deterministic table traced none)" if deterministic
-             else "must be >= 1 (every direction traced paths)"),
-            ("counts", lambda a: a >= 0, "must be >= 0"),
-            ("max_bounces_seen", lambda a: a >= 0, "must be >= 0"),
-            ("unbinned_paths", lambda a: a >= 0, "must be >= 0"),
-            ("theta_i", lambda a: (a >= 0.0) & (a <= 0.5 * np.pi), "must be in [0, pi/2] rad"),
-            ("phi_i", np.isfinite, "must be finite")):
-        if name in data:
-            checks.check_numeric(name, data[name], location)
-            with np.errstate(invalid="ignore"):
-                checks.check_where(name, data[name], good(data[name]), location, accepted)
-    checks.check_orders(data["order"], location)
-    for name in ("brdf", "brdf_stderr", "albedo", "cell_solid_angle", "cell_projected_solid_angle"):
-        checks.check_non_negative(name, data[name], location)
-    for name in ("absorbed", "truncated", "degenerate"):  # fractions of paths (or of energy)
-        checks.check_non_negative(name, data[name], location, upper=1.0)
-    for name in ("theta_i_deg", "phi_i_deg"):  # v2 and later: the degrees the config gave
-        if name in data:
-            checks.check_degrees(name, data[name], data[name.removesuffix("_deg")], location,
-                                 name.removesuffix("_deg"))
-    for name in ("order_source", "folded", "target_reached"):
-        if name in data:
-            checks.check_flags(name, data[name], location)
-    if "relative_error" in data:  # NaN without f_inf, inf while nothing exited
-        with np.errstate(invalid="ignore"):
-            checks.check_where("relative_error", data["relative_error"],
-                               ~(data["relative_error"] < 0), location, "must be >= 0 or NaN")
-    checks.check_albedo(data["brdf"], data["albedo"], data["cell_projected_solid_angle"], location)
 
 
 __all__ = ["FORMAT_NAME", "FORMAT_VERSION", "Table", "TableFormatError", "open_table",

@@ -13,10 +13,11 @@ the light entering the opening (width 2) carries ``2 (i.n)``; the facet has leng
 so back-facing and shadowed starting points have weight 0 and are not traced. From the
 first event on, the walk is the uniform-entry walk of :mod:`vcavity.kernels.trace`.
 
-Weights are summed as integers: ``q = floor(w Q + u)`` with ``Q = 2^16`` and a fresh
+Weights are summed as integers: ``q = floor(w Q + u)`` with the estimator's fixed-point
+scale ``Q`` (:data:`vcavity.estimators.paper.WEIGHT_SCALE`, passed in) and a fresh
 uniform ``u`` (stochastic rounding, so ``E[q] / Q = w`` exactly), and ``q^2`` for the
 variance. Merging stays exact in any order, so tables do not depend on threads or
-chunking; one cell's ``Σ q^2`` stays below 2^63 up to ~10^12 paths of weight 1.
+chunking.
 """
 
 from __future__ import annotations
@@ -34,19 +35,28 @@ from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, b
                                       exit_buffers, groove_frame, sample_groove, to_world)
 from vcavity.rng import next_uniform
 
-#: Fixed-point scale of the integer weights.
-WEIGHT_SCALE = 65536.0
+#: The walk's name (:mod:`vcavity.kernels.walks`), its tally planes and statistics columns.
+NAME = "paper"
+TALLIES = ("weights", "squares", "counts")
+STATS = ("absorbed_weight", "truncated_weight", "degenerate_weight", "max_bounces", "unbinned", "absorbed",
+         "truncated", "degenerate")
 
-# per-slot statistics: weight sums (in units of 1/WEIGHT_SCALE) and path counts
+# per-slot statistics (the positions of STATS): weight sums (in units of 1/Q) and path counts
 PAPER_ABSORBED = 0
 PAPER_TRUNCATED = 1
 PAPER_DEGENERATE = 2
 PAPER_MAX_BOUNCES = 3
-PAPER_ZERO_WEIGHT = 4  # paths with w = 0: back-facing or shadowed start, not traced
+PAPER_ZERO_WEIGHT = 4  # paths with w = 0: back-facing or shadowed start, not traced ("unbinned")
 PAPER_ABSORBED_PATHS = 5
 PAPER_TRUNCATED_PATHS = 6
 PAPER_DEGENERATE_PATHS = 7
 N_PAPER_STATS = 8
+
+
+def arguments(call) -> tuple:
+    """The kernel's arguments for a :class:`vcavity.kernels.walks.WalkCall` (signature: :func:`get_paper_kernel`)."""
+    return (call.incident, call.direction_key, call.first_block, call.n_blocks, call.n_paths, call.params,
+            call.facet_data, call.max_bounces, call.max_order, call.resolution, call.n_slots, call.weight_scale)
 
 
 def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
@@ -55,22 +65,26 @@ def get_paper_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     Signature::
 
         kernel(incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-               max_bounces, max_order, resolution, n_slots)
+               max_bounces, max_order, resolution, n_slots, weight_scale)
             -> (weights[n_slots, max_order + 1, n_cells], squares[...], counts[...],
                 stats[n_slots, N_PAPER_STATS]), all int64
 
     ``weights`` holds Σ q and ``squares`` Σ q^2 of the paths of each order slot (slot 0:
-    beyond max_order) and cell, ``counts`` the number of those paths. Blocks and slots as
-    in :func:`vcavity.kernels.trace.get_kernel`.
+    beyond max_order) and cell, ``counts`` the number of those paths; ``q = floor(w Q + u)``
+    with ``Q = weight_scale``. Blocks and slots as in :func:`vcavity.kernels.trace.get_kernel`.
     """
     return build_kernel("paper_kernel", _make_paper_kernel, dist_kind, facet_kind, facet_variant, 3, N_PAPER_STATS, 3)
+
+
+get_kernel = get_paper_kernel
 
 
 def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
     """The Python walk of one slot of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
     def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data,
-             max_bounces, max_order, resolution, n_slots, weights, squares, counts, stats, exits, exit_ints):
+             max_bounces, max_order, resolution, n_slots, weight_scale, weights, squares, counts, stats, exits,
+             exit_ints):
         # weights, squares, counts [max_order + 1, n_cells] and stats [N_PAPER_STATS]: this
         # slot's rows, zeroed; exits, exit_ints: its scratch rows (exit_buffers; row 2: q)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
@@ -106,7 +120,7 @@ def _make_paper_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
                     stats[PAPER_ZERO_WEIGHT] += 1
                     continue
                 state, u_round = next_uniform(state)
-                q = np.int64(math.floor(cos_in / (iz * cos_t) * WEIGHT_SCALE + u_round))
+                q = np.int64(math.floor(cos_in / (iz * cos_t) * weight_scale + u_round))
                 k = 0
                 fate = EXITED
                 while True:

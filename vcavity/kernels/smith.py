@@ -32,10 +32,14 @@ from vcavity.facet.common import ABSORBED as FACET_ABSORBED
 from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, block_start, build_kernel,
                                       exit_buffers)
 from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
-                                   STAT_UNBINNED)
+                                   STAT_UNBINNED, STATS, TALLIES, arguments)
 from vcavity.microfacet import registry as distributions
 from vcavity.rng.ziggurat import standard_exponential
 from vcavity.sensor.binning import bin_block
+
+#: The walk's name (:mod:`vcavity.kernels.walks`); its tallies, statistics and arguments are
+#: the V-groove walk's (TALLIES, STATS, arguments).
+NAME = "smith"
 
 # the walk counts a lost path in column STAT_ABSORBED + outcome - ABSORBED
 assert (STAT_TRUNCATED, STAT_DEGENERATE) == (STAT_ABSORBED + TRUNCATED - ABSORBED, STAT_ABSORBED + DEGENERATE - ABSORBED)
@@ -128,6 +132,9 @@ def get_smith_kernel(dist_kind: int, facet_kind: int, facet_variant: int):
     return build_kernel("smith_kernel", _make_smith_kernel, dist_kind, facet_kind, facet_variant, 1, N_STATS)
 
 
+get_kernel = get_smith_kernel
+
+
 def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
     """The Python Smith walk of one slot of one scene, for :func:`vcavity.kernels.scaffold.build_kernel`."""
 
@@ -174,4 +181,4 @@ def _make_smith_kernel(DIST, FACET, VARIANT, SOURCE_TAG):
     return walk
 
 
-__all__ = ["get_smith_kernel", "walkable"]
+__all__ = ["NAME", "STATS", "TALLIES", "arguments", "get_kernel", "get_smith_kernel", "walkable"]

@@ -41,7 +41,12 @@ from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, TRUNCATED, b
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import next_uniform
 
-# per-slot statistics columns
+#: The walk's name (:mod:`vcavity.kernels.walks`), its tally planes and statistics columns.
+NAME = "v-cavity"
+TALLIES = ("counts",)
+STATS = ("absorbed", "truncated", "degenerate", "max_bounces", "unbinned")
+
+# per-slot statistics columns (the positions of STATS)
 STAT_ABSORBED = 0
 STAT_TRUNCATED = 1
 STAT_DEGENERATE = 2
@@ -115,6 +120,12 @@ def variants() -> list[tuple[str, str, str]]:
     """
     return [(dist.NAME, facet.NAME, name)
             for dist in distributions.MODULES for facet in facets.MODULES for name in facet.VARIANTS]
+
+
+def arguments(call) -> tuple:
+    """The kernel's arguments for a :class:`vcavity.kernels.walks.WalkCall` (signature: :func:`get_kernel`)."""
+    return (call.incident, call.direction_key, call.first_block, call.n_blocks, call.n_paths, call.params,
+            call.facet_data, call.max_bounces, call.max_order, call.resolution, call.n_slots, call.first_binned_order)
 
 
 def get_kernel(dist_kind: int, facet_kind: int, facet_variant: int):

@@ -1,1 +1,1 @@
-"""The equal-solid-angle hemispherical sensor: its cells in plain NumPy (grid), the jitted binning of exit directions (binning), incident directions (directions) and the plane of incidence across the cells (plane)."""
+"""The equal-solid-angle hemispherical sensor: its cells in plain NumPy (grid), the jitted binning of exit directions (binning), incident directions (directions), the plane of incidence across the cells (plane) and the grid's mirror lines (mirror)."""

@@ -1,11 +1,11 @@
-"""Running a simulation: the pipeline of work units, the exact-f1 models, the CLI's driver (checkpoints, Ctrl-C) and the Dask executor.
+"""Running a simulation: the pipeline of work units, the CLI's driver (checkpoints, Ctrl-C) and the Dask executor.
 
-``Simulation``, ``simulate``, ``RunResult``, ``RunInterrupted`` and ``incident_vector`` are
+``Simulation``, ``simulate``, ``RunInterrupted`` and ``incident_vector`` are
 importable from here (loaded on first use, so importing a submodule such as
 :mod:`vcavity.simulate.interrupts` compiles and imports no Numba code).
 """
 
-_PIPELINE_NAMES = ("RunInterrupted", "RunResult", "Simulation", "incident_vector", "simulate")
+_PIPELINE_NAMES = ("RunInterrupted", "Simulation", "incident_vector", "simulate")
 
 
 def __getattr__(name):

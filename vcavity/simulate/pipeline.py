@@ -1,9 +1,11 @@
-"""Orchestration of a run: plan blocks per incident direction, call the kernel chunk by
-chunk, merge integer histograms, report progress. No physics here and no I/O.
+"""Orchestration of a run: plan blocks per incident direction, call the walk chunk by
+chunk, merge integer tallies, report progress. No physics here and no I/O.
 
 Work is cut into RNG blocks of ``BLOCK_SIZE`` paths (see :mod:`vcavity.rng`); a chunk is a
-run of consecutive blocks handed to one kernel call. Neither the chunk size nor the
+run of consecutive blocks handed to one walk call. Neither the chunk size nor the
 thread count changes a table: each block owns its random stream and counts are integers.
+What is traced and what the table holds is the estimator's (:mod:`vcavity.estimators`):
+its walk, the tally planes and statistics it keeps, its models and its values.
 """
 
 from __future__ import annotations
@@ -16,17 +18,15 @@ from typing import Callable
 import numba
 import numpy as np
 
-from vcavity.io.checkpoint import RunState
-from vcavity.config import Material, RunConfig
-from vcavity.estimators import (ANALOG, EXACT, EXACT_F1, PAPER, error_estimate_exists, estimate_direction,
-                                estimate_weighted, mirror_cells, order_source, relative_error)
-from vcavity.simulate.exact import ExactModels
-from vcavity.simulate.f1_models import F1Models
+from vcavity.config import RunConfig
+from vcavity.estimators import registry as estimators
+from vcavity.estimators.counts import error_estimate_exists, relative_error
+from vcavity.estimators.tabulate import tabulate
 from vcavity.facet import registry as facets
-from vcavity.kernels import paper
-from vcavity.kernels.smith import get_smith_kernel
-from vcavity.kernels.trace import (N_STATS, STAT_ABSORBED, STAT_DEGENERATE, STAT_MAX_BOUNCES, STAT_TRUNCATED,
-                                   STAT_UNBINNED, get_kernel)
+from vcavity.io.checkpoint import RunState
+from vcavity.io.schema import TableValue
+from vcavity.kernels import walks
+from vcavity.material import Material
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
@@ -38,13 +38,11 @@ DEFAULT_CHUNK_BLOCKS = 512
 #: Target-error runs decide whether to stop after every this many blocks (about 2.6e5
 #: paths): part of the definition of such a run, like BLOCK_SIZE (not tied to chunking).
 TARGET_CHECK_BLOCKS = 64
-#: Length of a work unit's statistics vector (see Simulation.execute).
-N_TALLY_STATS = N_STATS + 3
 
 
 @dataclass(frozen=True)
 class Scene:
-    """What the kernel needs of a material, resolved through the registries once."""
+    """What the walk needs of a material, resolved through the registries once."""
 
     dist_kind: int
     params: np.ndarray
@@ -58,43 +56,6 @@ class Scene:
         dist_kind, params = distributions.params_from(material.distribution, material.distribution_params)
         facet_kind, variant, data = facets.prepare(material.facet, material.facet_params)
         return cls(dist_kind, params, facet_kind, variant, data)
-
-
-@dataclass
-class RunResult:
-    """Outcome of a run, per incident direction (ready for ``write_table``).
-
-    ``counts`` are the raw integer counts (never folded; with the exact-f1 estimator the
-    first-order row is 0, those paths are in ``unbinned_paths``); ``brdf``,
-    ``brdf_stderr`` and ``albedo`` are what the table tabulates
-    (:mod:`vcavity.estimators`).
-    """
-
-    theta_i: np.ndarray
-    phi_i: np.ndarray
-    order: np.ndarray
-    counts: np.ndarray  # (incidence, order, cell) int64
-    paths: np.ndarray
-    absorbed_paths: np.ndarray
-    truncated_paths: np.ndarray
-    degenerate_paths: np.ndarray
-    max_bounces_seen: np.ndarray
-    sensor: EqualAreaSensor
-    compute_time_s: float
-    compile_time_s: float
-    unbinned_paths: np.ndarray = None
-    brdf: np.ndarray = None
-    brdf_stderr: np.ndarray = None
-    albedo: np.ndarray = None
-    estimator: str = ANALOG
-    order_source: np.ndarray = None
-    folded: np.ndarray = None  # (incidence,) bool
-    relative_error: np.ndarray = None  # (incidence,) energy-weighted, of f_inf (nan without it)
-    target_reached: np.ndarray = None  # (incidence,) bool, target-error runs only
-    model_time_s: float = 0.0
-    model_error_ratio: float = 0.0  # largest model error / statistical error of a cell (exact-f1)
-    block_size: int = BLOCK_SIZE
-    lost_fractions: np.ndarray = None  # (incidence, 3) paper: weighted absorbed, truncated, degenerate
 
 
 @dataclass(frozen=True)
@@ -115,17 +76,26 @@ class RunInterrupted(Exception):
 
 
 class Simulation:
-    """A planned run: the kernel for the material, blocks per direction.
+    """A planned run: the estimator's walk compiled for the material, blocks per direction.
 
     Parameters
     ----------
     config : RunConfig
         The validated run.
     threads : int, optional
-        Threads (default: all cores): the kernel's slots, one thread each, and the analytic
+        Threads (default: all cores): the walk's slots, one thread each, and the analytic
         models' Numba threads. Does not change the result.
     chunk_blocks : int, optional
-        RNG blocks per kernel call. Does not change the result.
+        RNG blocks per walk call. Does not change the result.
+
+    Attributes
+    ----------
+    estimator : module
+        The run's estimator (:mod:`vcavity.estimators.registry`).
+    models : object or None
+        Its analytic models (exact-f1's cell models, exact's every-order models).
+    walk : vcavity.kernels.walks.Walk or None
+        The walk it traces (None: the estimator traces nothing, the models are the table).
     """
 
     def __init__(self, config: RunConfig, threads: int | None = None, chunk_blocks: int | None = None):
@@ -136,38 +106,47 @@ class Simulation:
         self.chunk_blocks = int(chunk_blocks) if chunk_blocks else DEFAULT_CHUNK_BLOCKS
         if self.chunk_blocks < 1:
             raise ValueError(f"chunk_blocks = {chunk_blocks}: must be >= 1")
+        self.estimator = estimators.get(config.estimator)
         self.scene = Scene.of(config.material)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
-        self.weighted = config.estimator == PAPER
-        self.exact = ExactModels(config, self.sensor, incident_vector) if config.estimator == EXACT else None
-        build = (paper.get_paper_kernel if self.weighted
-                 else get_smith_kernel if config.material.microsurface == "smith" else get_kernel)
-        # the exact estimator traces nothing: no kernel is built or compiled
-        self.kernel = None if self.exact else build(self.scene.dist_kind, self.scene.facet_kind,
-                                                    self.scene.facet_variant)
-        self.first_binned_order = 2 if config.estimator == EXACT_F1 else 1
+        self.models = self.estimator.models(config, self.sensor)
+        walk_name = self.estimator.walk(config.material)
+        # an estimator without a walk traces nothing: no kernel is built or compiled
+        self.walk = None if walk_name is None else walks.get(walk_name, self.scene.dist_kind, self.scene.facet_kind,
+                                                              self.scene.facet_variant)
+        if self.walk is not None:
+            unknown = sorted(set(self.estimator.TALLIES) - set(self.walk.tallies)) + sorted(
+                set(self.estimator.STATS) - set(self.walk.stats))
+            if unknown:
+                raise ValueError(f"estimator {self.estimator.NAME!r} keeps {', '.join(unknown)}, which walk "
+                                 f"{walk_name!r} does not give")
         self.compile_time_s = 0.0
-        self.f1_models = F1Models(config, self.sensor, incident_vector)  # exact-f1 only
         self.last_state: RunState | None = None  # the state of the last finished run
 
     @property
+    def kernel(self):
+        """The walk's compiled kernel (:class:`vcavity.kernels.scaffold.SlotKernel`), or None."""
+        return None if self.walk is None else self.walk.kernel
+
+    @property
     def total_paths(self) -> int:
-        """Paths planned: every direction's budget (with a target error, its cap; exact: 0)."""
-        if self.exact:
+        """Paths planned: every direction's budget (with a target error, its cap; 0 without a walk)."""
+        if self.walk is None:
             return 0
         return sum(self.config.path_budget(d) for d in self.config.incidence)
 
-    def _call(self, incident, key, first_block, n_blocks, n_paths):
+    def _call(self, incident, key, first_block: int, n_blocks: int, n_paths: int):
         c = self.config
-        args = (incident, key, first_block, n_blocks, n_paths, self.scene.params, self.scene.facet_data,
-                c.effective_max_bounces, c.max_order, c.sensor_resolution, self.threads)
-        if self.weighted:
-            return self.kernel(*args)
-        return self.kernel(*args, self.first_binned_order)
+        return self.walk(walks.WalkCall(
+            incident=incident, direction_key=key, first_block=first_block, n_blocks=n_blocks, n_paths=n_paths,
+            params=self.scene.params, facet_data=self.scene.facet_data, max_bounces=c.effective_max_bounces,
+            max_order=c.max_order, resolution=c.sensor_resolution, n_slots=self.threads,
+            first_binned_order=self.estimator.FIRST_BINNED_ORDER,
+            weight_scale=getattr(self.estimator, "WEIGHT_SCALE", 0.0)))
 
     def compile(self) -> float:
-        """Compile (or load from cache) the kernel; return the seconds it took."""
-        if self.exact:
+        """Compile (or load from cache) the walk; return the seconds it took."""
+        if self.walk is None:
             return 0.0
         t0 = time.perf_counter()
         numba.set_num_threads(self.threads)
@@ -176,79 +155,50 @@ class Simulation:
         return self.compile_time_s
 
     def prepare_models(self) -> float:
-        """Exact-f1: every direction's f1 model before any path is traced
-        (:meth:`vcavity.simulate.f1_models.F1Models.prepare`); 0 s for the other estimators.
+        """The estimator's models, before any path is traced; returns their seconds (0 without).
 
         Raises
         ------
         vcavity.analytic.single_bounce.ModelNotApplicable
-            The model cannot reach the accuracy the run needs (one line).
+            A model cannot reach the accuracy the run needs (one line).
         """
-        if self.exact:
-            numba.set_num_threads(self.threads)
-            return self.exact.prepare()
-        if self.config.estimator != EXACT_F1:
+        if self.models is None:
             return 0.0
-        return self.f1_models.prepare()
+        numba.set_num_threads(self.threads)
+        return self.models.prepare()
 
     @property
     def model_time_s(self) -> float:
-        """Seconds spent on the exact-f1 or exact model (0 for the other estimators)."""
-        return self.exact.time_s if self.exact else self.f1_models.time_s
+        """Seconds spent on the estimator's models (0 without)."""
+        return 0.0 if self.models is None else self.models.time_s
 
-    def _seen(self, state: RunState):
-        """Per direction, the simulated cell counts of orders >= 2 (every slot)."""
-        return [state.tally[j, 0].sum(axis=0).astype(np.float64) for j in range(len(self.config.incidence))]
+    def execute(self, unit: WorkUnit):
+        """Trace one work unit; returns its integer ``(tally, stats)`` summed over threads.
 
-    def execute(self, unit: WorkUnit) -> np.ndarray:
-        """Trace one work unit; returns its integer tally summed over threads.
-
-        ``tally[0, k]`` counts exits of order k per cell (slot 0: beyond max_order); the
-        paper estimator adds ``tally[1]`` (Σ q) and ``tally[2]`` (Σ q^2). ``stats``:
-        absorbed, truncated, degenerate paths, the deepest path, unbinned (or zero-weight)
-        paths, then (paper) the weights absorbed, truncated and degenerate.
+        ``tally[p, k]`` is the estimator's tally plane ``TALLIES[p]`` for order slot ``k``
+        per cell (slot 0: beyond max_order); ``stats`` its ``STATS`` columns.
         """
         d = self.config.incidence[unit.direction]
-        out = self._call(incident_vector(d.theta_i, d.phi_i), direction_key(self.config.seed, d.theta_i, d.phi_i),
-                         unit.first_block, unit.n_blocks, self.config.path_budget(d))
-        stats = np.zeros(N_TALLY_STATS, np.int64)
-        if self.weighted:
-            weights, squares, counts, st = out
-            tally = np.stack([counts.sum(axis=0), weights.sum(axis=0), squares.sum(axis=0)])
-            stats[[STAT_ABSORBED, STAT_TRUNCATED, STAT_DEGENERATE]] = st[:, [
-                paper.PAPER_ABSORBED_PATHS, paper.PAPER_TRUNCATED_PATHS, paper.PAPER_DEGENERATE_PATHS]].sum(axis=0)
-            stats[STAT_MAX_BOUNCES] = st[:, paper.PAPER_MAX_BOUNCES].max()
-            stats[STAT_UNBINNED] = st[:, paper.PAPER_ZERO_WEIGHT].sum()
-            stats[N_STATS:] = st[:, [paper.PAPER_ABSORBED, paper.PAPER_TRUNCATED, paper.PAPER_DEGENERATE]].sum(axis=0)
-            return tally, stats
-        counts, st = out
-        stats[:N_STATS] = st.sum(axis=0)
-        stats[STAT_MAX_BOUNCES] = st[:, STAT_MAX_BOUNCES].max()
-        return counts.sum(axis=0)[None], stats
+        tallies, stats = self._call(incident_vector(d.theta_i, d.phi_i),
+                                    direction_key(self.config.seed, d.theta_i, d.phi_i),
+                                    unit.first_block, unit.n_blocks, self.config.path_budget(d))
+        return (np.stack([tallies[name] for name in self.estimator.TALLIES]),
+                np.array([stats[name] for name in self.estimator.STATS], dtype=np.int64))
 
     def _estimate(self, direction: int, tally, paths: int):
-        c = self.config
-        counts = _table_counts(tally[0], c.track_all_orders)
-        d = c.incidence[direction]
-        mirror = mirror_cells(self.sensor, d.phi_i_deg) if c.folds(d) else None
-        area = self.sensor.cell_projected_solid_angle
-        if self.weighted:
-            return counts, estimate_weighted(_table_counts(tally[1], c.track_all_orders),
-                                             _table_counts(tally[2], c.track_all_orders), paths,
-                                             paper.WEIGHT_SCALE, area, mirror=mirror)
-        model = self.f1_models.of(direction)
-        return counts, estimate_direction(counts, paths, c.orders, area, mirror=mirror,
-                                          f1_integrals=model[0], f1_error=model[1])
+        return self.estimator.estimate(direction, tally, paths, self.config, self.sensor, self.models)
 
     def new_state(self) -> RunState:
-        """The state of a run before its first path (what a checkpoint stores)."""
+        """The state of a run before its first path (what a checkpoint stores): per direction
+        the estimator's tally planes and statistics columns, all 0 (an estimator without a
+        walk: every direction finished)."""
         c = self.config
         n_inc = len(c.incidence)
-        depth = 3 if self.weighted else 1
-        return RunState(done_blocks=np.zeros(n_inc, np.int64), finished=np.zeros(n_inc, bool),
+        return RunState(done_blocks=np.zeros(n_inc, np.int64), finished=np.full(n_inc, self.walk is None),
                         reached=np.zeros(n_inc, bool),
-                        tally=np.zeros((n_inc, depth, c.max_order + 1, self.sensor.n_cells), np.int64),
-                        stats=np.zeros((n_inc, N_TALLY_STATS), np.int64), compute_time_s=0.0)
+                        tally=np.zeros((n_inc, len(self.estimator.TALLIES), c.max_order + 1, self.sensor.n_cells),
+                                       np.int64),
+                        stats=np.zeros((n_inc, len(self.estimator.STATS)), np.int64), compute_time_s=0.0)
 
     def paths_done(self, state: RunState) -> np.ndarray:
         """Paths traced so far per direction."""
@@ -257,7 +207,7 @@ class Simulation:
 
     def run(self, on_progress: Callable[..., None] | None = None, state: RunState | None = None,
             on_checkpoint: Callable[[RunState], None] | None = None, checkpoint_every_s: float = 60.0,
-            should_stop: Callable[[], bool] | None = None, executor=None) -> RunResult:
+            should_stop: Callable[[], bool] | None = None, executor=None) -> TableValue:
         """Trace every direction; ``on_progress(paths_done_now, relative_error)`` after each chunk.
 
         With a target error each direction runs until the energy-weighted relative
@@ -281,12 +231,6 @@ class Simulation:
             execute them here, one after the other.
         """
         run_units = executor if executor is not None else _execute_here
-        if self.exact:  # nothing to trace: the models are the table
-            self.prepare_models()
-            state = state if state is not None else self.new_state()
-            state.finished[:] = True
-            self.last_state = state
-            return self._exact_result()
         if self.compile_time_s == 0.0:
             self.compile()
         self.prepare_models()
@@ -326,7 +270,7 @@ class Simulation:
 
     def _direction_error(self, j: int, tally, paths: int) -> float:
         """The stop rule's measure for direction ``j``: relative error of f_inf (physics.md sec. 11)."""
-        _, estimate = self._estimate(j, tally, paths)
+        estimate = self._estimate(j, tally, paths)
         return relative_error(estimate, self.config.orders, self.sensor.cell_projected_solid_angle)
 
     def plan(self, j: int, state: RunState):
@@ -346,9 +290,7 @@ class Simulation:
         if unit.first_block != state.done_blocks[j]:
             raise ValueError(f"unit {unit} merged out of order (done_blocks = {int(state.done_blocks[j])})")
         state.tally[j] += unit_tally
-        deepest = max(state.stats[j, STAT_MAX_BOUNCES], unit_stats[STAT_MAX_BOUNCES])
-        state.stats[j] += unit_stats
-        state.stats[j, STAT_MAX_BOUNCES] = deepest
+        _merge_stats(state.stats[j], unit_stats, self.estimator.STATS)
         done = unit.first_block + unit.n_blocks
         state.done_blocks[j] = done
         check = self._check_block(j, unit.first_block)
@@ -361,9 +303,7 @@ class Simulation:
         if c.target_error is not None:
             paths = min(done * BLOCK_SIZE, budget)
             # a few landed paths give a binomial error of 0, not a small one: not reached
-            landed = int(state.tally[j, 0].sum())
-            if c.estimator == EXACT_F1:  # its first-order exits landed too (counted, not binned)
-                landed += int(state.stats[j, STAT_UNBINNED])
+            landed = self.estimator.landed(state.tally[j], state.stats[j])
             if error_estimate_exists(landed, c.target_error) and \
                     self._direction_error(j, state.tally[j], paths) <= c.target_error:
                 state.finished[j] = state.reached[j] = True
@@ -374,56 +314,16 @@ class Simulation:
         paths = int(self.paths_done(state)[j])
         return self._direction_error(j, state.tally[j], paths)
 
-    def result(self, state: RunState) -> RunResult:
-        """The tabulated outcome of a finished run state."""
-        self.f1_models.refine(self._seen(state), self.paths_done(state))
-        c = self.config
-        n_inc = len(c.incidence)
-        shape = (n_inc, len(c.orders), self.sensor.n_cells)
-        counts, brdf, stderr = np.zeros(shape, np.int64), np.zeros(shape), np.zeros(shape)
-        albedo = np.zeros((n_inc, len(c.orders)))
-        error = np.full(n_inc, np.nan)
+    def result(self, state: RunState) -> TableValue:
+        """The table of a finished run state (its models refined to the counts first)."""
         paths = self.paths_done(state)
-        stats = state.stats
-        for j in range(n_inc):
-            counts[j], estimate = self._estimate(j, state.tally[j], int(paths[j]))
-            brdf[j], stderr[j], albedo[j] = estimate.brdf, estimate.brdf_stderr, estimate.albedo
-            if c.track_all_orders:
-                error[j] = relative_error(estimate, c.orders, self.sensor.cell_projected_solid_angle)
-        return RunResult(
-            theta_i=np.array([d.theta_i for d in c.incidence]),
-            phi_i=np.array([d.phi_i for d in c.incidence]),
-            order=np.array(c.orders, dtype=np.int64),
-            counts=counts, paths=paths,
-            absorbed_paths=stats[:, STAT_ABSORBED].copy(),
-            truncated_paths=stats[:, STAT_TRUNCATED].copy(),
-            degenerate_paths=stats[:, STAT_DEGENERATE].copy(),
-            max_bounces_seen=stats[:, STAT_MAX_BOUNCES].copy(),
-            unbinned_paths=stats[:, STAT_UNBINNED].copy(),
-            sensor=self.sensor, compute_time_s=state.compute_time_s, compile_time_s=self.compile_time_s,
-            brdf=brdf, brdf_stderr=stderr, albedo=albedo, estimator=c.estimator,
-            order_source=order_source(c.orders, c.estimator),
-            folded=np.array([c.folds(d) for d in c.incidence]),
-            relative_error=error, target_reached=state.reached.copy() if c.target_error is not None else None,
-            model_time_s=self.model_time_s, model_error_ratio=self.f1_models.error_ratio(self._seen(state), self.paths_done(state)),
-            lost_fractions=stats[:, N_STATS:] / (paper.WEIGHT_SCALE * paths[:, None]) if self.weighted else None,
-        )
-
-
-    def _exact_result(self) -> RunResult:
-        """The table of the exact estimator (:mod:`vcavity.simulate.exact`): no counts, no paths."""
-        c = self.config
-        n_inc = len(c.incidence)
-        brdf, stderr, albedo, lost, error = self.exact.tabulated(c.orders)
-        zeros = np.zeros(n_inc, np.int64)
-        return RunResult(
-            theta_i=np.array([d.theta_i for d in c.incidence]), phi_i=np.array([d.phi_i for d in c.incidence]),
-            order=np.array(c.orders, dtype=np.int64), counts=np.zeros(brdf.shape, np.int64), paths=zeros,
-            absorbed_paths=zeros, truncated_paths=zeros, degenerate_paths=zeros, max_bounces_seen=zeros,
-            unbinned_paths=zeros, sensor=self.sensor, compute_time_s=self.exact.time_s, compile_time_s=0.0,
-            brdf=brdf, brdf_stderr=stderr, albedo=albedo, estimator=EXACT,
-            order_source=order_source(c.orders, EXACT), folded=np.zeros(n_inc, bool), relative_error=error,
-            target_reached=None, model_time_s=self.exact.time_s, lost_fractions=lost)
+        if self.models is not None:
+            self.models.refine(state.tally, paths)
+        reached = state.reached.copy() if self.config.target_error is not None and self.walk is not None else None
+        compute_time_s = state.compute_time_s if self.walk is not None else self.model_time_s
+        return tabulate(self.config, self.sensor, self.estimator, state.tally, state.stats, paths, self.models,
+                        reached, compute_time_s=compute_time_s, compile_time_s=self.compile_time_s,
+                        block_size=BLOCK_SIZE)
 
 
 def _execute_here(simulation: Simulation, units):
@@ -433,12 +333,10 @@ def _execute_here(simulation: Simulation, units):
         yield unit, simulation.execute(unit)
 
 
-def _table_counts(slots, track_all_orders: bool):
-    """The order axis of a table from kernel slots (slot 0 = beyond max_order):
-    0 = every order (f_inf), then 1..K; without f_inf only 1..K."""
-    if track_all_orders:
-        return np.concatenate([slots.sum(axis=0, keepdims=True), slots[1:]], axis=0)
-    return slots[1:].copy()
+def _merge_stats(total: np.ndarray, part: np.ndarray, names) -> None:
+    """Add a unit's statistics ``part`` to ``total`` in place: sums, but the deepest path's maximum."""
+    for k, name in enumerate(names):
+        total[k] = max(total[k], part[k]) if name == "max_bounces" else total[k] + part[k]
 
 
 def _paths_in(first_block: int, n_blocks: int, budget: int) -> int:
@@ -446,7 +344,7 @@ def _paths_in(first_block: int, n_blocks: int, budget: int) -> int:
 
 
 def simulate(config: RunConfig, threads: int | None = None, chunk_blocks: int | None = None,
-             on_progress: Callable[..., None] | None = None) -> RunResult:
-    """Run a whole config; see :class:`Simulation`."""
+             on_progress: Callable[..., None] | None = None) -> TableValue:
+    """Run a whole config and return its table; see :class:`Simulation`."""
     sim = Simulation(config, threads=threads, chunk_blocks=chunk_blocks)
     return sim.run(on_progress)

@@ -22,8 +22,7 @@ from numba.core import event
 
 from vcavity import config as config_mod
 from vcavity.facet import registry as facets
-from vcavity.kernels.smith import get_smith_kernel
-from vcavity.kernels.trace import get_kernel
+from vcavity.kernels import walks
 from vcavity.microfacet import registry as distributions
 from vcavity.simulate.pipeline import Scene, Simulation
 
@@ -52,7 +51,7 @@ class Variant:
 
     @classmethod
     def of_material(cls, material) -> "Variant":
-        """The variant a run of ``material`` (a :class:`vcavity.config.Material`) compiles."""
+        """The variant a run of ``material`` (a :class:`vcavity.material.Material`) compiles."""
         return cls(material.microsurface, material.distribution, material.facet,
                    facets.variant_name(material.facet, material.facet_params))
 
@@ -113,11 +112,10 @@ def compile_variant(variant: Variant) -> tuple[float, bool]:
     facet_kind, _, data = facets.prepare(variant.facet, facets.REGISTRY.parse(variant.facet,
                                                                               _example_values(facet_module)))
     index = facet_module.VARIANTS.index(variant.facet_variant)
-    build = get_smith_kernel if variant.microsurface == "smith" else get_kernel
-    # the run's own call (Simulation.compile), with this variant's kernel and scene: the
+    # the run's own call (Simulation.compile), with this variant's walk and scene: the
     # cached signature is the one a run asks for
     simulation.scene = Scene(dist_kind, params, facet_kind, index, data)
-    simulation.kernel = build(dist_kind, facet_kind, index)
+    simulation.walk = walks.get(variant.microsurface, dist_kind, facet_kind, index)
     misses = sum(simulation.kernel.walk.stats.cache_misses.values())  # the dispatcher is shared per process
     seconds = simulation.compile()
     return seconds, sum(simulation.kernel.walk.stats.cache_misses.values()) == misses

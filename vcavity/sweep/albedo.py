@@ -2,18 +2,11 @@
 
 A sweep stores ``albedo(grid..., order)`` but no standard error of it. Where the estimator
 makes the albedo a fraction of independent paths, the error follows from the albedo and
-the paths of the direction alone (docs/hdf5-format.md, *The cell value*):
-
-- ``analog``: ``albedo[k] = n_k / N`` with ``n_k`` the paths that left with order ``k``
-  (``k = 0``: every exit) out of ``N = paths``, a binomial count, so its standard error is
-  ``sqrt(a (1 - a) / N)``, exactly the formula of a binomial proportion;
-- ``exact-f1``: order 1 is the analytic single-bounce model (no statistical error; its
-  quadrature error is not stored per direction and is neglected, the run keeps it below a
-  tenth of each cell's statistical error); orders ``k >= 2`` are binomial as above; f_inf is
-  the model plus the binomial fraction ``p = albedo[0] - albedo[1]`` of the paths that left
-  after two or more bounces, so its error is ``sqrt(p (1 - p) / N)``;
-- ``paper`` (weighted paths): the error needs the per-path weights summed over all cells,
-  which the sweep does not keep: none.
+the paths of the direction alone (docs/hdf5-format.md, *The cell value*); each estimator
+says how (its ``STDERR_RULE`` and ``albedo_stderr``, :mod:`vcavity.estimators.registry`):
+binomial ``sqrt(a (1 - a) / N)`` for the analog estimator, the same for the simulated part
+of exact-f1's orders (its f1 is analytic), none for the paper estimator (the error needs
+the per-path weights summed over all cells) or for the exact one's models.
 
 Plain NumPy (used by ``vcavity plot --kind sweep`` and ``vcavity export --format albedo-lut``).
 """
@@ -22,18 +15,15 @@ from __future__ import annotations
 
 import numpy as np
 
-#: Estimator -> how the albedo's standard error is obtained (one line, for metadata and titles).
-STDERR_RULES = {
-    "analog": "binomial sqrt(a (1 - a) / paths): the albedo is a fraction of independent paths",
-    "exact-f1": "f1 analytic (no statistical error; quadrature error neglected); other orders binomial "
-                "sqrt(p (1 - p) / paths) of the simulated fraction p (f_inf: p = E_inf - E_f1)",
-}
+from vcavity.estimators import registry as estimators
 
 
 def stderr_rule(estimator: str) -> str:
     """How :func:`albedo_stderr` obtains the error for ``estimator`` (one line)."""
-    return STDERR_RULES.get(estimator, f"not available: the sweep stores no albedo error for estimator "
-                                       f"{estimator!r} (weighted paths)")
+    module = estimators.find(estimator)
+    if module is None:
+        return f"not available: the sweep's estimator {estimator!r} is not one this vcavity knows"
+    return module.STDERR_RULE
 
 
 def order_position(sweep, order: int) -> int | None:
@@ -54,11 +44,6 @@ def albedo(sweep, order: int) -> np.ndarray:
     if position is None:
         raise KeyError(f"order {order} is not in the sweep")
     return np.asarray(sweep.data["albedo"][..., position], dtype=np.float64)
-
-
-def _binomial(fraction, paths):
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.sqrt(np.clip(fraction * (1.0 - fraction), 0.0, None) / paths)
 
 
 def albedo_stderr(sweep, order: int) -> np.ndarray | None:
@@ -82,7 +67,7 @@ def stderr_of(estimator: str, order: int, value, value_f1, paths) -> np.ndarray 
     Parameters
     ----------
     estimator : str
-        ``analog``, ``exact-f1``, ...: the table's or sweep's ``estimator`` attribute.
+        The table's or sweep's ``estimator`` attribute.
     order : int
         Bounce order of ``value``, 0 = f_inf.
     value, value_f1 : array_like
@@ -93,21 +78,10 @@ def stderr_of(estimator: str, order: int, value, value_f1, paths) -> np.ndarray 
     Returns
     -------
     ndarray or None
-        None where the estimator gives no error (module docstring).
+        None where the estimator gives no error (or is not known here).
     """
-    if estimator not in STDERR_RULES:
-        return None
-    paths = np.asarray(paths, dtype=np.float64)
-    paths = np.where(paths > 0, paths, np.nan)  # points not done: NaN, not a division by zero
-    value = np.asarray(value, dtype=np.float64)
-    if estimator == "exact-f1":
-        if int(order) == 1:
-            return None
-        if int(order) == 0:
-            if value_f1 is None:
-                return None
-            value = value - np.asarray(value_f1, dtype=np.float64)  # the simulated part: exits after >= 2 bounces
-    return _binomial(value, paths)
+    module = estimators.find(estimator)
+    return None if module is None else module.albedo_stderr(order, value, value_f1, paths)
 
 
-__all__ = ["STDERR_RULES", "albedo", "albedo_stderr", "order_position", "stderr_of", "stderr_rule"]
+__all__ = ["albedo", "albedo_stderr", "order_position", "stderr_of", "stderr_rule"]

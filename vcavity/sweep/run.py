@@ -19,36 +19,27 @@ import json
 import os
 from typing import Callable
 
-import numpy as np
-
+from vcavity.estimators import registry as estimators
 from vcavity.io import preflight
 from vcavity.io.sweep_points import NotInPlace, PointWriter
 from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
 from vcavity.sweep.spec import Point, Sweep, SweepError, overrides_text
 
 
-def record(sweep: Sweep, data: SweepData, point: Point, result) -> None:
-    """Store a finished point's :class:`~vcavity.simulate.pipeline.RunResult` in ``data`` (as
-    :func:`vcavity.io.writer.write_result` stores a run: fractions of paths, or of
-    energy for the weighted estimator, the model's for the exact one)."""
-    if result.lost_fractions is None:
-        paths = np.asarray(result.paths, np.float64)
-        lost = {"absorbed": result.absorbed_paths / paths, "truncated": result.truncated_paths / paths,
-                "degenerate": result.degenerate_paths / paths}
-    else:  # weighted (energy) or exact (the model's) fractions
-        lost = {name: result.lost_fractions[:, k] for k, name in enumerate(("absorbed", "truncated", "degenerate"))}
-    per_direction = {"brdf": result.brdf, "brdf_stderr": result.brdf_stderr, "counts": result.counts,
-                     "albedo": result.albedo, "paths": result.paths, "max_bounces_seen": result.max_bounces_seen,
-                     "unbinned_paths": result.unbinned_paths, "folded": result.folded,
-                     "relative_error": result.relative_error, **lost}
-    if result.target_reached is not None:
-        per_direction["target_reached"] = result.target_reached
+#: What a sweep stores of each direction of a point's table, under the table's names.
+PER_DIRECTION = ("brdf", "brdf_stderr", "counts", "albedo", "paths", "max_bounces_seen", "unbinned_paths", "folded",
+                 "relative_error", "absorbed", "truncated", "degenerate", "target_reached")
+
+
+def record(sweep: Sweep, data: SweepData, point: Point, value) -> None:
+    """Store a finished point's table (:class:`~vcavity.io.schema.TableValue`) in ``data``:
+    each direction's values as the table holds them, at the point's place in the grid."""
     for j in range(len(point.config.incidence)):
         where = sweep.grid_index(point, j)
-        for name, values in per_direction.items():
-            data.data[name][where] = values[j]
+        for name in PER_DIRECTION:
+            data.data[name][where] = value[name][j]
     data.data["seed"][point.index] = point.config.seed
-    data.data["compute_time_s"][point.index] = result.compute_time_s
+    data.data["compute_time_s"][point.index] = value.attrs["compute_time_s"]
     data.data["done"][point.index] = 1
 
 
@@ -124,7 +115,7 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
         raise preflight.PreflightError(f"--threads = {threads}: must be between 1 and {cores} (cores here)")
     first = sweep.points[0].config
     n_cells = first.sensor_resolution ** 2
-    tallies = 3 if first.estimator == "paper" else 1
+    tallies = len(estimators.get(first.estimator).TALLIES)
     needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(
         sweep.n_directions, len(first.orders), first.max_order, n_cells, threads or cores, tallies)
     available = preflight.available_memory()

@@ -41,6 +41,7 @@ import numpy as np
 
 from vcavity import config as config_mod
 from vcavity.config import ConfigError, RunConfig
+from vcavity.estimators import registry as estimators
 from vcavity.facet import registry as facets
 from vcavity.io.sweep_table import INCIDENCE_AXES, GridAxis, SweepData
 from vcavity.microfacet import registry as distributions
@@ -122,6 +123,7 @@ class Sweep:
                  "cell_projected_solid_angle": sensor.cell_projected_solid_angle}
         attrs = {"seed": np.uint64(self.seed), "spec": json.dumps(self.spec, sort_keys=True, default=str),
                  "spec_digest": self.digest, "source": self.source, "estimator": first.estimator,
+                 "deterministic": np.int64(estimators.get(first.estimator).walk(first.material) is None),
                  "block_size": np.int64(BLOCK_SIZE), "max_bounces": np.int64(first.effective_max_bounces),
                  "max_order": np.int64(first.max_order), "track_all_orders": np.int8(first.track_all_orders),
                  "sensor_partition": sensor.partition, "sensor_resolution": np.int64(sensor.resolution),

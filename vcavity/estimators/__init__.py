@@ -1,0 +1,1 @@
+"""The estimators: how a run's integer tallies become a table's values, one module each (analog, exact_f1, paper, exact), registered in registry.py; counts.py (what they share: the binomial estimate, the mirror fold, the error of f_inf) and tabulate.py (a finished run as one table value)."""
