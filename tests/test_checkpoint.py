@@ -1,5 +1,5 @@
 """Checkpoints: an interrupted and resumed run gives the uninterrupted table, bit for bit
-(vcavity/io/checkpoint.py, Simulation.run(state=..., should_stop=...)).
+(vcavity/simulate/state.py, vcavity/io/checkpoint.py, Simulation.run(state=..., should_stop=...)).
 
 The interruption points are chosen by counting chunks, so the tests exercise stops inside
 a direction, between directions and inside a target-error check interval.
@@ -11,6 +11,7 @@ import pytest
 
 from vcavity.io import checkpoint
 from vcavity import config as config_mod
+from vcavity.simulate import state as run_state
 from vcavity.simulate.pipeline import RunInterrupted, Simulation
 
 RAW = {"material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
@@ -51,9 +52,8 @@ def test_interrupt_save_load_resume_is_bitwise_identical(tmp_path, simulation, s
         sim = Simulation(cfg, chunk_blocks=5 + n, threads=1 + n % 2)  # chunking and threads vary
         with pytest.raises(RunInterrupted) as info:
             sim.run(state=state, should_stop=_stop_after(n))
-        checkpoint.save(path, info.value.state, cfg.to_dict(), int(sim.paths_done(info.value.state).sum()),
-                        sim.total_paths)
-        state = checkpoint.load(path, cfg.to_dict())
+        run_state.save(path, info.value.state, cfg, sim.total_paths)
+        state = run_state.load(path, cfg, layout=sim.new_state())
         np.testing.assert_array_equal(state.tally, info.value.state.tally)
     resumed = Simulation(cfg, chunk_blocks=3).run(state=state)
     _assert_same_table(whole, resumed)
@@ -74,22 +74,27 @@ def test_a_corrupted_or_foreign_checkpoint_is_refused(tmp_path):
     with pytest.raises(RunInterrupted) as info:
         sim.run(should_stop=_stop_after(3))
     path = tmp_path / "c.checkpoint"
-    checkpoint.save(path, info.value.state, cfg.to_dict(), 1, 2)
+    run_state.save(path, info.value.state, cfg, 2)
     good = path.read_bytes()
     with pytest.raises(checkpoint.CheckpointError, match="another run"):
-        checkpoint.load(path, _config(seed=4).to_dict())
+        run_state.load(path, _config(seed=4))
     with h5py.File(path, "a") as h5:  # flip one count: the digest no longer matches
         tally = h5["tally"][()]
         tally.flat[np.argmax(tally)] += 1
         h5["tally"][...] = tally
     with pytest.raises(checkpoint.CheckpointError, match="corrupted"):
-        checkpoint.load(path, cfg.to_dict())
+        run_state.load(path, cfg)
     path.write_bytes(good[: len(good) // 2])  # truncated
     with pytest.raises(checkpoint.CheckpointError, match="unreadable or truncated"):
-        checkpoint.load(path, cfg.to_dict())
+        run_state.load(path, cfg)
     assert path.exists()  # never removed or replaced by the failed load
     with pytest.raises(checkpoint.CheckpointError, match="no checkpoint"):
-        checkpoint.load(tmp_path / "missing", cfg.to_dict())
+        run_state.load(tmp_path / "missing", cfg)
+    path.write_bytes(good)  # the same run, but a layout of other statistics columns is refused
+    other = sim.new_state()
+    other.stats = np.zeros((2, 8), np.int64)
+    with pytest.raises(checkpoint.CheckpointError, match=r"stats of shape \(2, 5\), this run keeps \(2, 8\)"):
+        run_state.load(path, cfg, layout=other)
 
 
 def test_the_output_path_does_not_change_the_digest():

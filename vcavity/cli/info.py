@@ -60,7 +60,7 @@ def _sweep_info(path: str) -> int:
 
 def _checkpoint_info(path: str) -> int:
     """What an interrupted run's checkpoint holds, and how to continue it."""
-    from vcavity.simulate.driver import describe_checkpoint
+    from vcavity.io.summary import describe_checkpoint
 
     try:
         print(describe_checkpoint(path))

@@ -10,8 +10,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vcavity.cli.common import (EXIT_INTERRUPTED, EXIT_OK, add_budget_flags, budget_overrides, count_arg, error,
-                                first_line, name_the_flag, written)
+from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, error, first_line, written
+from vcavity.cli.tracing import ProgressBar, add_run_flags, budget_overrides, name_the_flag
 
 NAME = "sweep"
 
@@ -57,20 +57,7 @@ def add_parser(subparsers) -> None:
         epilog=_SWEEP_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     sweep.set_defaults(handler=command)
     sweep.add_argument("sweep", metavar="SWEEP.toml", help="sweep file: a run config plus a [sweep] table")
-    sweep.add_argument("-o", "--output", metavar="OUT.h5",
-                       help="output file (default: [output].path, else SWEEP with .h5)")
-    sweep.add_argument("--resume", action="store_true",
-                       help="continue the sweep in the existing output: run only the points not done "
-                       "(refused if it holds another sweep)")
-    sweep.add_argument("--overwrite", action="store_true", help="replace an existing output")
-    add_budget_flags(sweep)
-    sweep.add_argument("--threads", type=count_arg(1, 4096), metavar="T", help="worker threads (default: all cores)")
-    sweep.add_argument("--chunk-blocks", type=count_arg(1, 2**40), metavar="B",
-                       help="RNG blocks of 4096 paths per kernel call (does not change results)")
-    sweep.add_argument("--dask", metavar="ADDRESS",
-                       help="run each point's work units on a Dask cluster: a scheduler address "
-                       "(tcp://host:8786) or local:N (a LocalCluster of N workers); same file as a local run")
-    sweep.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
+    add_run_flags(sweep, NAME)
 
 
 def command(args: argparse.Namespace) -> int:
@@ -78,16 +65,15 @@ def command(args: argparse.Namespace) -> int:
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
-    if args.dask is not None:
-        from vcavity.simulate.dask import parse_address
-
-        try:
-            parse_address(args.dask)
-        except ValueError as exc:
-            return error(f"--dask = {args.dask!r}: {exc}")
+    from vcavity.simulate.plan import PlanError, check_dask_address
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
+
+    try:
+        check_dask_address(args.dask)
+    except PlanError as exc:
+        return error(str(exc))
 
     overrides = budget_overrides(args)
     try:
@@ -97,7 +83,7 @@ def command(args: argparse.Namespace) -> int:
     try:
         output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
                                                    resume=args.resume, threads=args.threads)
-    except (sweep_mod.SweepError, PreflightError) as exc:
+    except (sweep_mod.SweepError, PreflightError, PlanError) as exc:
         return error(str(exc))
     if note:
         print(f"vcavity: {note}", file=sys.stderr)
@@ -138,17 +124,12 @@ def _trace(args, spec, output, data, executor, total) -> int:
     # Ctrl-C only sets a flag, checked between kernel calls and after each point's write:
     # a point being written is completed, the running one is dropped.
     with DeferredInterrupt() as interrupt:
-        bar = None
-        if not args.quiet:
-            from tqdm import tqdm
-
-            bar = tqdm(total=total, initial=sweep_run.paths_done(spec, data), unit="path", unit_scale=True,
-                       dynamic_ncols=True, desc="sweeping", file=sys.stderr)
+        bar = None if args.quiet else ProgressBar(total, sweep_run.paths_done(spec, data), "sweeping")
 
         def progress(paths_now, error):
             interrupt.check()
             if bar is not None:
-                bar.update(paths_now)
+                bar.advance(paths_now, float("nan"))  # a point's own error: no target across points
 
         try:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,

@@ -1,22 +1,19 @@
-"""The state of an unfinished run, and its checkpoint file (atomic, checksummed).
+"""The checkpoint file of an unfinished run (atomic, checksummed).
 
-A :class:`RunState` holds, per incident direction, the integer tally of the blocks traced
-so far (blocks ``0 .. done_blocks - 1``, always a prefix, so a resumed run traces exactly
-the blocks an uninterrupted one would), the path statistics and whether the direction is
-finished. Integer sums merge exactly, so resuming gives a bitwise identical table.
-
-A checkpoint is an HDF5 file (``format = "vcavity-checkpoint"``) holding the state, the
-run's full configuration as JSON and a SHA-256 digest of both: a truncated or corrupted
-file, or one of another configuration, is detected and refused, never silently restarted.
-It is written like a table: temporary file in the same folder, flush, fsync, rename.
+A checkpoint is an HDF5 file (``format = "vcavity-checkpoint"``) holding a run's state as
+named integer and boolean arrays (:class:`vcavity.simulate.state.RunState` says what they
+are), the run's full configuration as JSON and a SHA-256 digest of both: a truncated or
+corrupted file, or one of another configuration, is detected and refused, never silently
+restarted. It is written like a table: temporary file in the same folder, flush, fsync,
+rename. This module only serialises; the state is the run's.
 """
 
 from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import dataclass
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
@@ -27,36 +24,6 @@ _ARRAYS = ("done_blocks", "finished", "reached", "tally", "stats")
 
 class CheckpointError(ValueError):
     """A checkpoint cannot be used (unreadable, corrupted, or of another run); one line."""
-
-
-class CheckpointWriteError(Exception):
-    """Saving a checkpoint failed (disk full, ...); nothing was replaced.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The checkpoint that could not be written.
-    previous : bool
-        Whether an earlier checkpoint is at ``path`` (unchanged: the write is atomic).
-    reason : str
-        Why, in a few words (``No space left on device``).
-    """
-
-    def __init__(self, path: Path, previous: bool, reason: str):
-        super().__init__(f"writing the checkpoint {str(path)!r} failed ({reason})")
-        self.path, self.previous, self.reason = path, previous, reason
-
-
-@dataclass
-class RunState:
-    """Progress of a run (see module doc); arrays are updated in place while it runs."""
-
-    done_blocks: np.ndarray  # (incidence,) int64
-    finished: np.ndarray  # (incidence,) bool
-    reached: np.ndarray  # (incidence,) bool: target error reached
-    tally: np.ndarray  # (incidence, depth, max_order + 1, cells) int64
-    stats: np.ndarray  # (incidence, n_stats) int64
-    compute_time_s: float = 0.0
 
 
 def checkpoint_path(output: Path) -> Path:
@@ -71,18 +38,22 @@ def config_digest(config_dict: dict) -> str:
     return hashlib.sha256(json.dumps(defining, sort_keys=True, default=str).encode()).hexdigest()
 
 
-def _payload_digest(state: RunState, config_json: str) -> str:
+def _payload_digest(arrays: Mapping[str, np.ndarray], config_json: str) -> str:
     digest = hashlib.sha256(config_json.encode())
     for name in _ARRAYS:
-        array = np.ascontiguousarray(getattr(state, name))
+        array = np.ascontiguousarray(arrays[name])
         digest.update(name.encode() + str(array.dtype).encode() + str(array.shape).encode())
         digest.update(array.tobytes())
     return digest.hexdigest()
 
 
-def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planned: int) -> None:
-    """Write ``state`` atomically to ``path`` (:func:`vcavity.io.atomic.write_hdf5`: built in
-    memory, temporary file, fsync, ``os.replace``; names and cleanup those of tables).
+def save(path, arrays: Mapping[str, np.ndarray], compute_time_s: float, config_dict: dict, paths_done: int,
+         paths_planned: int) -> None:
+    """Write a run's state atomically to ``path`` (:func:`vcavity.io.atomic.write_hdf5`: built
+    in memory, temporary file, fsync, ``os.replace``; names and cleanup those of tables).
+
+    ``arrays`` holds ``done_blocks``, ``finished``, ``reached``, ``tally`` and ``stats``
+    (booleans are stored as int8); ``paths_done`` and ``paths_planned`` are for ``vcavity info``.
 
     Raises
     ------
@@ -97,11 +68,11 @@ def save(path, state: RunState, config_dict: dict, paths_done: int, paths_planne
     def build(h5):
         h5.attrs.update({"format": FORMAT_NAME, "format_version": np.int64(FORMAT_VERSION),
                          "config": config_json, "config_digest": config_digest(config_dict),
-                         "payload_sha256": _payload_digest(state, config_json),
-                         "compute_time_s": float(state.compute_time_s),
+                         "payload_sha256": _payload_digest(arrays, config_json),
+                         "compute_time_s": float(compute_time_s),
                          "paths_done": np.int64(paths_done), "paths_planned": np.int64(paths_planned)})
         for name in _ARRAYS:
-            array = getattr(state, name)
+            array = np.asarray(arrays[name])
             h5.create_dataset(name, data=array.astype(np.int8) if array.dtype == bool else array)
 
     remove_stale_temporaries(path)
@@ -132,8 +103,14 @@ def refuse_non_file(path) -> None:
                           "there; move it away or write the table elsewhere")
 
 
-def load(path, config_dict: dict) -> RunState:
-    """Read and verify a checkpoint of the run ``config_dict``.
+def load(path, config_dict: dict) -> tuple[dict, float]:
+    """Read and verify a checkpoint of the run ``config_dict``: its arrays and compute time.
+
+    Returns
+    -------
+    arrays : dict of str to ndarray
+        ``done_blocks``, ``finished``, ``reached`` (int8 0/1), ``tally``, ``stats``.
+    compute_time_s : float
 
     Raises
     ------
@@ -157,18 +134,20 @@ def load(path, config_dict: dict) -> RunState:
                               "it was left as it is") from None
     if attrs.get("format") != FORMAT_NAME or int(attrs.get("format_version", -1)) != FORMAT_VERSION:
         raise CheckpointError(f"{str(path)!r} is not a vcavity checkpoint of format {FORMAT_VERSION}")
-    state = RunState(done_blocks=arrays["done_blocks"].astype(np.int64),
-                     finished=arrays["finished"].astype(bool), reached=arrays["reached"].astype(bool),
-                     tally=arrays["tally"].astype(np.int64), stats=arrays["stats"].astype(np.int64),
-                     compute_time_s=float(attrs.get("compute_time_s", 0.0)))
     stored_json = str(attrs.get("config", ""))
-    if _payload_digest(state, stored_json) != attrs.get("payload_sha256"):
+    if _payload_digest({name: _as_stored(array) for name, array in arrays.items()}, stored_json) \
+            != attrs.get("payload_sha256"):
         raise CheckpointError(f"checkpoint {str(path)!r} is corrupted (its SHA-256 digest does not match); "
                               "it was left as it is")
     if attrs.get("config_digest") != config_digest(config_dict):
         raise CheckpointError(f"checkpoint {str(path)!r} belongs to another run (its config or seed differs); "
                               "resume with the same config and --seed, or start afresh with --overwrite")
-    return state
+    return arrays, float(attrs.get("compute_time_s", 0.0))
+
+
+def _as_stored(array: np.ndarray) -> np.ndarray:
+    """An array as it was digested when saved: booleans (stored as int8) as booleans."""
+    return array.astype(bool) if array.dtype == np.int8 else array.astype(np.int64)
 
 
 def foreign_output(path, config_dict: dict) -> str | None:

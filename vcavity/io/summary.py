@@ -1,4 +1,4 @@
-"""Human-readable summaries of tables (used by ``vcavity run`` and ``vcavity info``)."""
+"""Human-readable summaries of tables and checkpoints (used by ``vcavity run`` and ``vcavity info``)."""
 
 from __future__ import annotations
 
@@ -60,6 +60,18 @@ def _estimator_line(table) -> str:
     if isinstance(target, float) and math.isfinite(target):
         text += f"; target error {target:g}"
     return text
+
+
+def describe_checkpoint(path) -> str:
+    """What ``vcavity info`` prints for a checkpoint file."""
+    from vcavity.io import checkpoint
+
+    summary = checkpoint.describe(path)
+    done, planned = summary["paths_done"], summary["paths_planned"]
+    source = summary["config"].get("source", "?")
+    share = 100.0 * done / planned if planned else 0.0
+    return (f"checkpoint: {path} (partial run of {source}): {done:,} of {planned:,} paths done ({share:.1f} %), "
+            f"{summary['compute_time_s']:.1f} s traced; continue with: vcavity run ... --resume")
 
 
 def format_summary(table, verbose: bool = False) -> str:

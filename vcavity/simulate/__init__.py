@@ -1,4 +1,4 @@
-"""Running a simulation: the pipeline of work units, the CLI's driver (checkpoints, Ctrl-C) and the Dask executor.
+"""Running a simulation: the run service (plan.py: every check before compiling; service.py: compile, model, trace with checkpoints and Ctrl-C, write), the pipeline of work units, the run's state and the Dask executor.
 
 ``Simulation``, ``simulate``, ``RunInterrupted`` and ``incident_vector`` are
 importable from here (loaded on first use, so importing a submodule such as

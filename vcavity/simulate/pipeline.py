@@ -23,7 +23,6 @@ from vcavity.estimators import registry as estimators
 from vcavity.estimators.counts import error_estimate_exists, relative_error
 from vcavity.estimators.tabulate import tabulate
 from vcavity.facet import registry as facets
-from vcavity.io.checkpoint import RunState
 from vcavity.io.schema import TableValue
 from vcavity.kernels import walks
 from vcavity.material import Material
@@ -31,6 +30,8 @@ from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
 from vcavity.sensor.grid import EqualAreaSensor
+from vcavity.simulate import state as run_state
+from vcavity.simulate.state import RunState
 
 #: Default paths per kernel call: large enough to amortise the call, small enough for a
 #: lively progress bar (about a quarter of a second on 2 cores).
@@ -189,21 +190,12 @@ class Simulation:
         return self.estimator.estimate(direction, tally, paths, self.config, self.sensor, self.models)
 
     def new_state(self) -> RunState:
-        """The state of a run before its first path (what a checkpoint stores): per direction
-        the estimator's tally planes and statistics columns, all 0 (an estimator without a
-        walk: every direction finished)."""
-        c = self.config
-        n_inc = len(c.incidence)
-        return RunState(done_blocks=np.zeros(n_inc, np.int64), finished=np.full(n_inc, self.walk is None),
-                        reached=np.zeros(n_inc, bool),
-                        tally=np.zeros((n_inc, len(self.estimator.TALLIES), c.max_order + 1, self.sensor.n_cells),
-                                       np.int64),
-                        stats=np.zeros((n_inc, len(self.estimator.STATS)), np.int64), compute_time_s=0.0)
+        """The state of a run before its first path (:func:`vcavity.simulate.state.start`)."""
+        return run_state.start(self.config, self.sensor.n_cells)
 
     def paths_done(self, state: RunState) -> np.ndarray:
         """Paths traced so far per direction."""
-        budgets = np.array([self.config.path_budget(d) for d in self.config.incidence], np.int64)
-        return np.minimum(state.done_blocks * BLOCK_SIZE, budgets)
+        return state.paths_done(self.config)
 
     def run(self, on_progress: Callable[..., None] | None = None, state: RunState | None = None,
             on_checkpoint: Callable[[RunState], None] | None = None, checkpoint_every_s: float = 60.0,

@@ -23,6 +23,7 @@ from vcavity.estimators import registry as estimators
 from vcavity.io import preflight
 from vcavity.io.sweep_points import NotInPlace, PointWriter
 from vcavity.io.sweep_table import SweepData, SweepFormatError, open_sweep, write_sweep
+from vcavity.simulate.plan import check_threads
 from vcavity.sweep.spec import Point, Sweep, SweepError, overrides_text
 
 
@@ -97,11 +98,9 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
 
     Raises
     ------
-    SweepError, vcavity.io.preflight.PreflightError
+    SweepError, vcavity.io.preflight.PreflightError, vcavity.simulate.plan.PlanError
         One line naming the flag or field.
     """
-    import numba
-
     if resume and overwrite:
         raise SweepError("--resume with --overwrite: give one (--resume continues the sweep in --output, "
                          "--overwrite starts it again)")
@@ -110,14 +109,12 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
     exists = out.path.exists()
     if exists and not (resume or overwrite):
         raise out.fail("exists; pass --resume to continue its sweep or --overwrite to start it again")
-    cores = numba.config.NUMBA_NUM_THREADS
-    if threads is not None and not 1 <= threads <= cores:
-        raise preflight.PreflightError(f"--threads = {threads}: must be between 1 and {cores} (cores here)")
+    threads = check_threads(threads)
     first = sweep.points[0].config
     n_cells = first.sensor_resolution ** 2
     tallies = len(estimators.get(first.estimator).TALLIES)
     needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(
-        sweep.n_directions, len(first.orders), first.max_order, n_cells, threads or cores, tallies)
+        sweep.n_directions, len(first.orders), first.max_order, n_cells, threads, tallies)
     available = preflight.available_memory()
     if available is not None and needed > available:
         raise preflight.PreflightError(
