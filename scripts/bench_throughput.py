@@ -137,16 +137,16 @@ def against_commit(commit: str, paths: int, rounds: int, theta: float) -> dict:
     return {**figures, **{k: v for k, v in figures["fig7b"].items() if k != "label"}}
 
 
-# (label, material, simulation table, first_binned_order)
+# (label, material, simulation table)
 CASES = [
-    ("fig. 7b IL, general (max_order 3)", FIG7B, {}, 1),
-    ("fig. 7b IL, exact-f1 (orders >= 2 binned)", FIG7B, {}, 2),
-    ("fig. 7b IL, f1 only", FIG7B, {"max_order": 1, "track_all_orders": False}, 1),
-    ("fig. 7b IL, anisotropic alpha 0.6 x 0.3", {**FIG7B, "alpha": None, "alpha_x": 0.6, "alpha_y": 0.3}, {}, 1),
-    ("specular dielectric kd = 0, general", {**FIG7B, "kd": 0.0}, {}, 1),
-    ("specular dielectric kd = 0, f1 only", {**FIG7B, "kd": 0.0}, {"max_order": 1, "track_all_orders": False}, 1),
-    ("Lambertian facets (eta = 1), general", {**FIG7B, "eta": 1.0}, {}, 1),
-    ("mirror facets, general", {"distribution": "beckmann", "alpha": 0.6, "facet": "mirror"}, {}, 1),
+    ("fig. 7b IL, general (max_order 3)", FIG7B, {}),
+    ("fig. 7b IL, exact-f1 (orders >= 2 binned)", FIG7B, {"estimator": "exact-f1"}),
+    ("fig. 7b IL, f1 only", FIG7B, {"max_order": 1, "track_all_orders": False}),
+    ("fig. 7b IL, anisotropic alpha 0.6 x 0.3", {**FIG7B, "alpha": None, "alpha_x": 0.6, "alpha_y": 0.3}, {}),
+    ("specular dielectric kd = 0, general", {**FIG7B, "kd": 0.0}, {}),
+    ("specular dielectric kd = 0, f1 only", {**FIG7B, "kd": 0.0}, {"max_order": 1, "track_all_orders": False}),
+    ("Lambertian facets (eta = 1), general", {**FIG7B, "eta": 1.0}, {}),
+    ("mirror facets, general", {"distribution": "beckmann", "alpha": 0.6, "facet": "mirror"}, {}),
 ]
 
 
@@ -157,23 +157,20 @@ def variants_table(paths: int, repeat: int, theta: float) -> list[dict]:
 
     from vcavity.config import validate
     from vcavity.rng import BLOCK_SIZE, direction_key
-    from vcavity.simulate.pipeline import Scene, incident_vector
-    from vcavity.kernels.trace import get_kernel
+    from vcavity.simulate.pipeline import Simulation, incident_vector
 
     rows = []
-    for label, material, simulation, first_binned in CASES:
+    for label, material, simulation in CASES:
         material = {k: v for k, v in material.items() if v is not None}
         cfg = validate({"material": material, "incidence": {"theta_i_deg": [theta], "paths": paths},
                         "simulation": simulation})
-        scene = Scene.of(cfg.material)
-        kernel = get_kernel(scene.dist_kind, scene.facet_kind, scene.facet_variant)
+        sims = {threads: Simulation(cfg, threads=threads) for threads in (1, 2)}  # the walk as a run calls it
         d = cfg.incidence[0]
         incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
 
         def call(n_paths, threads):
             numba.set_num_threads(threads)
-            return kernel(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths, scene.params, scene.facet_data,
-                          cfg.effective_max_bounces, cfg.max_order, cfg.sensor_resolution, threads, first_binned)
+            return sims[threads]._call(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths)
 
         t0 = time.perf_counter()
         call(BLOCK_SIZE, 1)
@@ -183,12 +180,12 @@ def variants_table(paths: int, repeat: int, theta: float) -> list[dict]:
             rates, cpu = [], []
             for _ in range(repeat):
                 t0, c0 = time.perf_counter(), time.process_time()
-                counts, _stats = call(paths, threads)
+                tallies, _stats = call(paths, threads)
                 rates.append(paths / (time.perf_counter() - t0))
                 cpu.append(paths / (time.process_time() - c0))
             row[threads] = statistics.median(rates)
             row[f"cpu{threads}"] = statistics.median(cpu)
-        assert np.all(counts >= 0)
+        assert np.all(tallies["counts"] >= 0)
         rows.append(row)
         print(f"  {label:44s} {row[1] / 1e6:8.2f} {row[2] / 1e6:8.2f}   {row['cpu1'] / 1e6:8.2f} "
               f"{row['cpu2'] / 1e6:8.2f}   {compile_s:6.1f} s", flush=True)
@@ -208,27 +205,22 @@ def smith_table(paths: int, repeat: int, theta: float) -> list[dict]:
     import numba
 
     from vcavity.config import validate
-    from vcavity.kernels.smith import get_smith_kernel
-    from vcavity.kernels.trace import get_kernel
     from vcavity.rng import BLOCK_SIZE, direction_key
-    from vcavity.simulate.pipeline import Scene, incident_vector
+    from vcavity.simulate.pipeline import Simulation, incident_vector
 
     rows = []
     for label, material in SMITH_CASES:
         calls = {}
-        for surface, factory in (("v-cavity", get_kernel), ("smith", get_smith_kernel)):
+        for surface in ("v-cavity", "smith"):
             cfg = validate({"material": {**material, "microsurface": surface},
                             "incidence": {"theta_i_deg": [theta], "paths": paths}})
-            scene = Scene.of(cfg.material)
-            kernel = factory(scene.dist_kind, scene.facet_kind, scene.facet_variant)
+            sims = {threads: Simulation(cfg, threads=threads) for threads in (1, 2)}
             d = cfg.incidence[0]
             incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
 
-            def call(n_paths, threads, kernel=kernel, incident=incident, key=key, scene=scene, cfg=cfg):
+            def call(n_paths, threads, sims=sims, incident=incident, key=key):
                 numba.set_num_threads(threads)
-                return kernel(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths, scene.params,
-                              scene.facet_data, cfg.effective_max_bounces, cfg.max_order, cfg.sensor_resolution,
-                              threads, 1)
+                return sims[threads]._call(incident, key, 0, -(-n_paths // BLOCK_SIZE), n_paths)
 
             call(BLOCK_SIZE, 1)  # compile or load
             calls[surface] = call

@@ -90,8 +90,8 @@ def test_two_processes_compiling_one_kernel_into_one_cache(tmp_path):
         raw = {"material": {"distribution": "ggx", "alpha": 0.4, "facet": "mirror"},
                "incidence": {"theta_i_deg": [40.0], "paths": 50000},
                "simulation": {"seed": 2, "max_order": 2, "sensor_resolution": 9}}
-        result = simulate(config_mod.validate(raw))
-        print(int(result.counts.sum()), int(np.sum(result.counts * np.arange(result.counts.size).reshape(result.counts.shape))))
+        counts = simulate(config_mod.validate(raw))["counts"]
+        print(int(counts.sum()), int(np.sum(counts * np.arange(counts.size).reshape(counts.shape))))
     """)
     env = {**os.environ, "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     processes = [subprocess.Popen([sys.executable, "-c", script], env=env, stdout=subprocess.PIPE,

@@ -18,6 +18,7 @@ from vcavity.kernels.groove import LEFT, NO_HIT, OPENING, RIGHT, next_surface
 from vcavity.microfacet import beckmann, ggx
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet.common import MAX_TAN_THETA, normal_from_slope_angle, stretched_slope
+from vcavity.kernels import loop
 from vcavity.sensor.binning import bin_block, direction_to_cell
 from vcavity.simulate.pipeline import Simulation, simulate
 
@@ -233,17 +234,16 @@ def test_walk_is_float64_throughout():
     sim = Simulation(cfg, threads=1)
     kernel, recorded = sim.walk.kernel, {}
 
-    def record(*args):
-        recorded["args"] = args
-        return kernel(*args)
+    def record(call):
+        recorded["call"] = call
+        return kernel(call)
 
     sim.walk.kernel = record
-    sim.compile()  # records the exact arguments the simulator passes
-    args = recorded["args"]
-    max_order, resolution = args[8], args[9]
-    # the jitted walk of slot 0 with the rows the kernel hands it (vcavity.kernels.scaffold.SlotKernel)
-    slot_rows = kernel.slot_rows(kernel.outputs(1, max_order, resolution), 0)
-    _assert_float64_only(_types_of(kernel.walk.py_func, 0, *args, *slot_rows))
+    sim.compile()  # records the exact call the simulator makes
+    call = recorded["call"]
+    # the jitted walk of slot 0 with the rows the kernel hands it (vcavity.kernels.loop.SlotKernel)
+    slot_rows = kernel.slot_rows(kernel.outputs(1, call.max_order, call.resolution), 0)
+    _assert_float64_only(_types_of(kernel.walk.py_func, 0, *loop.arguments(call), *slot_rows))
     _assert_float64_only(_types_of(fr.fresnel_dielectric.py_func, 0.3, 1.5))
     _assert_float64_only(_types_of(direction_to_cell.py_func, 0.1, 0.2, 0.97, 57))
     exits = np.full(4, 0.5)

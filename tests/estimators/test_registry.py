@@ -18,7 +18,7 @@ import pytest
 
 from vcavity import config as config_mod
 from vcavity.estimators import registry as estimators
-from vcavity.kernels import walks
+from vcavity.kernels import registry as walk_registry
 
 ROOT = Path(__file__).resolve().parents[2]
 MATERIALS = {"v-cavity": config_mod.validate({"material": {"alpha": 0.5, "facet": "mirror"}}).material,
@@ -46,7 +46,7 @@ def test_every_estimator_has_the_interface_and_keeps_only_what_its_walk_gives(mo
         if name is None:  # a model's table: nothing traced, nothing kept
             assert module.TALLIES == () and module.STATS == ()
             continue
-        walk = walks.WALKS[name]
+        walk = walk_registry.get(name)
         assert set(module.TALLIES) <= set(walk.TALLIES) and set(module.STATS) <= set(walk.STATS), surface
         assert module.TALLIES[0] == "counts"  # the table's raw counts come from the first plane
     flags = module.order_source((0, 1, 2))

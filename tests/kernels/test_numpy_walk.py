@@ -25,7 +25,7 @@ from scipy import stats  # noqa: E402
 from tests.reference.numpy_walk import walk  # noqa: E402
 from vcavity.config import validate  # noqa: E402
 from vcavity.facet import registry as facets  # noqa: E402
-from vcavity.kernels import trace  # noqa: E402
+from vcavity.kernels import walks  # noqa: E402
 from vcavity.microfacet import registry as distributions  # noqa: E402
 from vcavity.rng import BLOCK_SIZE  # noqa: E402
 
@@ -37,11 +37,13 @@ def _kernel_counts(material, theta, phi, n_paths, key):
     m = validate({"material": material}).material
     dist_kind, params = distributions.params_from(m.distribution, m.distribution_params)
     facet_kind, variant, data = facets.prepare(m.facet, m.facet_params)
-    kernel = trace.get_kernel(dist_kind, facet_kind, variant)
+    walk = walks.get("v-cavity", dist_kind, facet_kind, variant)
     incident = np.array([math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta)])
-    counts, stat = kernel(incident, np.uint64(key), 0, -(-n_paths // BLOCK_SIZE), n_paths, params, data,
-                          10_000, MAX_ORDER, RESOLUTION, 2, 1)
-    return counts.sum(axis=0), int(stat[:, trace.STAT_ABSORBED].sum())
+    tallies, stats = walk(walks.WalkCall(
+        incident=incident, direction_key=np.uint64(key), first_block=0, n_blocks=-(-n_paths // BLOCK_SIZE),
+        n_paths=n_paths, params=params, facet_data=data, max_bounces=10_000, max_order=MAX_ORDER,
+        resolution=RESOLUTION, n_slots=2))
+    return tallies["counts"], int(stats["absorbed"])
 
 
 def _homogeneity_p(material, theta_deg, phi_deg, n_paths):

@@ -38,8 +38,7 @@ from scipy import stats
 from tests.reference.smith_walk import walk
 from vcavity.config import validate
 from vcavity.facet import registry as facets
-from vcavity.kernels.smith import get_smith_kernel
-from vcavity.kernels.trace import STAT_ABSORBED, STAT_TRUNCATED
+from vcavity.kernels import walks
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
@@ -57,11 +56,13 @@ def kernel_counts(material, theta_deg, phi_deg, n_paths, seed, resolution=RESOLU
     m = validate({"material": dict(material, microsurface="smith")}).material
     dist_kind, params = distributions.params_from(m.distribution, m.distribution_params)
     facet_kind, variant, data = facets.prepare(m.facet, m.facet_params)
-    kernel = get_smith_kernel(dist_kind, facet_kind, variant)
+    walk = walks.get("smith", dist_kind, facet_kind, variant)
     theta, phi = math.radians(theta_deg), math.radians(phi_deg)
-    counts, stat = kernel(incident_vector(theta, phi), direction_key(seed, theta, phi), 0, -(-n_paths // BLOCK_SIZE),
-                          n_paths, params, data, max_bounces, max_order, resolution, 2, 1)
-    return counts.sum(axis=0), int(stat[:, STAT_ABSORBED].sum()), int(stat[:, STAT_TRUNCATED].sum())
+    tallies, stats = walk(walks.WalkCall(
+        incident=incident_vector(theta, phi), direction_key=direction_key(seed, theta, phi), first_block=0,
+        n_blocks=-(-n_paths // BLOCK_SIZE), n_paths=n_paths, params=params, facet_data=data, max_bounces=max_bounces,
+        max_order=max_order, resolution=resolution, n_slots=2))
+    return tallies["counts"], int(stats["absorbed"]), int(stats["truncated"])
 
 
 def homogeneity(a, b, n_a, n_b, min_count=20):

@@ -20,7 +20,8 @@ from scipy import special, stats
 
 from tests.reference import materials as ref
 from vcavity.facet import registry as facets
-from vcavity.kernels.smith import get_smith_kernel, walkable
+from vcavity.kernels import walks
+from vcavity.kernels.smith import walkable
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
@@ -34,17 +35,19 @@ def _run(distribution, roughness, facet, facet_values, incident, n_paths=N_PATHS
          splits=1, max_bounces=10_000, seed=3):
     kind, params = distributions.params_from(distribution, roughness)
     facet_kind, variant, data = facets.prepare(facet, facet_values)
-    kernel = get_smith_kernel(kind, facet_kind, variant)
+    walk = walks.get("smith", kind, facet_kind, variant)
     n_blocks = -(-n_paths // BLOCK_SIZE)
     key = direction_key(seed, 0.5, 0.25)
     counts = np.zeros((max_order + 1, RESOLUTION ** 2), np.int64)
     lost = np.zeros(3, np.int64)
     edges = np.linspace(0, n_blocks, splits + 1).astype(int)
     for first, last in zip(edges[:-1], edges[1:]):
-        c, s = kernel(incident, key, first, last - first, n_paths, params, data, max_bounces, max_order, RESOLUTION,
-                      n_slots, 1)
-        counts += c.sum(axis=0)
-        lost += s[:, :3].sum(axis=0)
+        tallies, stats = walk(walks.WalkCall(
+            incident=incident, direction_key=key, first_block=first, n_blocks=last - first, n_paths=n_paths,
+            params=params, facet_data=data, max_bounces=max_bounces, max_order=max_order, resolution=RESOLUTION,
+            n_slots=n_slots))
+        counts += tallies["counts"]
+        lost += [stats["absorbed"], stats["truncated"], stats["degenerate"]]
     return counts, lost
 
 
@@ -157,4 +160,4 @@ def test_distributions_with_a_diverging_lambda_are_refused(name):
     reason = walkable(name)
     assert reason is not None and "\n" not in reason and name in reason
     with pytest.raises(ValueError, match=name):
-        get_smith_kernel(distributions.kind_of(name), facets.kind_of("mirror"), 0)
+        walks.get("smith", distributions.kind_of(name), facets.kind_of("mirror"), 0)

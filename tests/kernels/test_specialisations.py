@@ -20,7 +20,7 @@ import pytest
 from scipy import stats
 
 from vcavity.facet import registry as facets
-from vcavity.kernels import trace
+from vcavity.kernels import trace, walks
 from vcavity.microfacet import registry as distributions
 from vcavity.microfacet import beckmann, ggx, student_t
 from vcavity.rng import BLOCK_SIZE
@@ -28,15 +28,18 @@ from vcavity.rng import BLOCK_SIZE
 THETA = math.radians(60.0)
 INCIDENT = np.array([math.sin(THETA) * math.cos(0.4), math.sin(THETA) * math.sin(0.4), math.cos(THETA)])
 RESOLUTION = 9
+COLUMN = {name: k for k, name in enumerate(trace.STATS)}
 
 
 def _run(facet, values, key, n_paths, max_bounces, max_order, first_binned_order=1):
     dist_kind, params = distributions.params_from("beckmann", {"alpha_x": 0.6, "alpha_y": 0.6})
     facet_kind, variant, data = facets.prepare(facet, values)
-    kernel = trace.get_kernel(dist_kind, facet_kind, variant)
-    counts, stat = kernel(INCIDENT, np.uint64(key), 0, -(-n_paths // BLOCK_SIZE), n_paths, params, data,
-                          max_bounces, max_order, RESOLUTION, 2, first_binned_order)
-    return counts.sum(axis=0), stat
+    walk = walks.get("v-cavity", dist_kind, facet_kind, variant)
+    counts, stat = walk.kernel(walks.WalkCall(
+        incident=INCIDENT, direction_key=np.uint64(key), first_block=0, n_blocks=-(-n_paths // BLOCK_SIZE),
+        n_paths=n_paths, params=params, facet_data=data, max_bounces=max_bounces, max_order=max_order,
+        resolution=RESOLUTION, n_slots=2, first_binned_order=first_binned_order))
+    return counts.sum(axis=0), stat  # stat per slot: the columns of trace.STATS
 
 
 def test_variants_follow_the_registries():
@@ -54,9 +57,9 @@ def test_f1_only_mirror_run_is_bitwise_the_f1_of_the_full_run():
     only, only_stat = _run("mirror", {}, 11, n, 1, 1)
     np.testing.assert_array_equal(only[1], full[1])
     assert only[0].sum() == 0  # nothing beyond order 1 is ever binned
-    assert only_stat[:, trace.STAT_MAX_BOUNCES].max() == 1 < full_stat[:, trace.STAT_MAX_BOUNCES].max()
+    assert only_stat[:, COLUMN["max_bounces"]].max() == 1 < full_stat[:, COLUMN["max_bounces"]].max()
     # a path that meets a second wall stops there, counted as truncated
-    assert only_stat[:, trace.STAT_TRUNCATED].sum() == n - full[1].sum() - only_stat[:, trace.STAT_DEGENERATE].sum()
+    assert only_stat[:, COLUMN["truncated"]].sum() == n - full[1].sum() - only_stat[:, COLUMN["degenerate"]].sum()
 
 
 def test_f1_only_il_run_agrees_with_the_full_run():
@@ -64,7 +67,7 @@ def test_f1_only_il_run_agrees_with_the_full_run():
     il = {"kd": 0.9, "eta": 1.5}
     full, _ = _run("interfaced_lambertian", il, 21, n, 10_000, 3)
     only, only_stat = _run("interfaced_lambertian", il, 22, n, 1, 1)
-    assert only_stat[:, trace.STAT_MAX_BOUNCES].max() == 1
+    assert only_stat[:, COLUMN["max_bounces"]].max() == 1
     table = np.array([only[1], full[1]])
     keep = table.sum(axis=0) >= 20
     rows = np.column_stack([table[:, keep], table[:, ~keep].sum(axis=1), n - table.sum(axis=1)])
@@ -79,10 +82,10 @@ def test_first_binned_order_two_only_skips_binning_the_first_order():
     skipped, stat2 = _run("interfaced_lambertian", il, 31, n, 10_000, 3, first_binned_order=2)
     assert skipped[1].sum() == 0
     np.testing.assert_array_equal(skipped[[0, 2, 3]], binned[[0, 2, 3]])
-    assert stat2[:, trace.STAT_UNBINNED].sum() == binned[1].sum() > 0
-    assert stat1[:, trace.STAT_UNBINNED].sum() == 0
-    np.testing.assert_array_equal(np.delete(stat1, trace.STAT_UNBINNED, axis=1),
-                                  np.delete(stat2, trace.STAT_UNBINNED, axis=1))
+    assert stat2[:, COLUMN["unbinned"]].sum() == binned[1].sum() > 0
+    assert stat1[:, COLUMN["unbinned"]].sum() == 0
+    np.testing.assert_array_equal(np.delete(stat1, COLUMN["unbinned"], axis=1),
+                                  np.delete(stat2, COLUMN["unbinned"], axis=1))
 
 
 @pytest.mark.parametrize("module, extra", [(beckmann, ()), (ggx, ()), (student_t, (1.7,))])

@@ -7,6 +7,7 @@ tests/facet/test_interfaced_lambertian.py.) The two-sample Kolmogorov-Smirnov te
 reject at p < 1e-3 (false-positive rate 2e-3 per distribution case, fixed seeds).
 """
 
+import dataclasses
 import math
 import subprocess
 import sys
@@ -20,7 +21,7 @@ from vcavity._numba.jit import njit  # caches where vcavity's own code does
 from scipy import stats
 
 from vcavity.facet import registry as facets
-from vcavity.kernels import scaffold, trace
+from vcavity.kernels import scaffold, trace, walks
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE
 
@@ -77,25 +78,28 @@ def test_kernel_groove_sampler_has_the_distribution_of_sample(name, values):
 def test_one_kernel_per_scene_and_its_output_layout():
     dist_kind = distributions.kind_of("beckmann")
     facet_kind, variant, facet_data = facets.prepare("mirror", {})
-    kernel = trace.get_kernel(dist_kind, facet_kind, variant)
-    assert trace.get_kernel(dist_kind, facet_kind, variant) is kernel
+    walk = walks.get("v-cavity", dist_kind, facet_kind, variant)
+    assert walks.get("v-cavity", dist_kind, facet_kind, variant).kernel is walk.kernel  # built once
     il_kind, il_variant, _ = facets.prepare("interfaced_lambertian", {"kd": 0.5, "eta": 1.5})
-    assert trace.get_kernel(dist_kind, il_kind, il_variant) is not kernel
+    assert walks.get("v-cavity", dist_kind, il_kind, il_variant).kernel is not walk.kernel
+    assert walks.get("smith", dist_kind, facet_kind, variant).kernel is not walk.kernel
     _, params = distributions.params_from("beckmann", {"alpha_x": 0.4, "alpha_y": 0.4})
     incident = np.array([math.sin(0.5), 0.0, math.cos(0.5)])
     n_paths, max_order, resolution, n_slots = BLOCK_SIZE + 100, 2, 5, 2
-    counts, stat = kernel(incident, np.uint64(99), 0, 2, n_paths, params, facet_data, 50, max_order,
-                          resolution, n_slots, 1)
+    call = walks.WalkCall(incident=incident, direction_key=np.uint64(99), first_block=0, n_blocks=2, n_paths=n_paths,
+                          params=params, facet_data=facet_data, max_bounces=50, max_order=max_order,
+                          resolution=resolution, n_slots=n_slots)
+    counts, stat = walk.kernel(call)  # per slot: the counts plane and the statistics columns
     assert counts.shape == (n_slots, max_order + 1, resolution * resolution) and counts.dtype == np.int64
-    assert stat.shape == (n_slots, trace.N_STATS) and stat.dtype == np.int64
-    assert stat[:, trace.STAT_ABSORBED].sum() == 0  # mirror facets
-    exits = counts.sum()
-    assert exits + stat[:, [trace.STAT_TRUNCATED, trace.STAT_DEGENERATE]].sum() == n_paths
-    assert stat[:, trace.STAT_MAX_BOUNCES].max() <= 50
+    assert stat.shape == (n_slots, len(trace.STATS)) and stat.dtype == np.int64
+    tallies, stats = walk(call)  # by name, summed over the slots
+    assert list(tallies) == ["counts"] and np.array_equal(tallies["counts"], counts.sum(axis=0))
+    assert stats["absorbed"] == 0  # mirror facets
+    assert tallies["counts"].sum() + stats["truncated"] + stats["degenerate"] == n_paths
+    assert stats["max_bounces"] == stat[:, trace.STATS.index("max_bounces")].max() <= 50
     # no block, no path
-    counts, stat = kernel(incident, np.uint64(99), 0, 0, 0, params, facet_data, 50, max_order, resolution, n_slots,
-                          1)
-    assert counts.sum() == 0 and stat.sum() == 0
+    tallies, stats = walk(dataclasses.replace(call, n_blocks=0, n_paths=0))
+    assert tallies["counts"].sum() == 0 and sum(stats.values()) == 0
 
 
 def test_the_source_tag_covers_every_jitted_file_the_kernels_are_built_from():

@@ -35,8 +35,7 @@ import pytest
 from scipy import stats
 
 from vcavity.facet import registry as facets
-from vcavity.kernels.smith import get_smith_kernel
-from vcavity.kernels.trace import STAT_ABSORBED, STAT_TRUNCATED
+from vcavity.kernels import walks
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
@@ -72,14 +71,16 @@ def _f1_share(r, mu, n_paths, seed):
     """Share of paths leaving after one bounce, white GGX mirror facets, α = r², μ = cos θ_i."""
     kind, params = distributions.params_from("ggx", {"alpha_x": r * r, "alpha_y": r * r})
     facet_kind, variant, data = facets.prepare("mirror", {})
-    kernel = get_smith_kernel(kind, facet_kind, variant)
+    walk = walks.get("smith", kind, facet_kind, variant)
     theta = math.acos(mu)
-    counts, stat = kernel(incident_vector(theta, 0.0), direction_key(seed, theta, r), 0, -(-n_paths // BLOCK_SIZE),
-                          n_paths, params, data, 10_000, 1, 3, 2, 1)
-    assert stat[:, STAT_ABSORBED].sum() == 0 and stat[:, STAT_TRUNCATED].sum() == 0
-    total = counts.sum()
-    assert total == n_paths  # white furnace: f_inf = 1, so orders >= 2 carry 1 - f1 (Kulla-Conty)
-    return counts.sum(axis=0)[1].sum() / n_paths
+    tallies, stats = walk(walks.WalkCall(
+        incident=incident_vector(theta, 0.0), direction_key=direction_key(seed, theta, r), first_block=0,
+        n_blocks=-(-n_paths // BLOCK_SIZE), n_paths=n_paths, params=params, facet_data=data, max_bounces=10_000,
+        max_order=1, resolution=3, n_slots=2))
+    assert stats["absorbed"] == 0 and stats["truncated"] == 0
+    counts = tallies["counts"]
+    assert counts.sum() == n_paths  # white furnace: f_inf = 1, so orders >= 2 carry 1 - f1 (Kulla-Conty)
+    return counts[1].sum() / n_paths
 
 
 def _node_z(ys, xs, n_paths, seed):

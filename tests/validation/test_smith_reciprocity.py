@@ -31,7 +31,7 @@ from scipy import stats
 from vcavity.analytic.quadrature import subcell_quadrature
 from vcavity.config import validate
 from vcavity.facet import registry as facets
-from vcavity.kernels.smith import get_smith_kernel
+from vcavity.kernels import walks
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
@@ -47,13 +47,15 @@ def _walker(material):
     m = validate({"material": dict(material, microsurface="smith")}).material
     dist_kind, params = distributions.params_from(m.distribution, m.distribution_params)
     facet_kind, variant, data = facets.prepare(m.facet, m.facet_params)
-    kernel = get_smith_kernel(dist_kind, facet_kind, variant)
+    walk = walks.get("smith", dist_kind, facet_kind, variant)
 
     def counts(theta, phi, n_paths, seed):
         """(order slot, cell) counts; slot 0 is f_inf here (every exit)."""
-        c, _ = kernel(incident_vector(theta, phi), direction_key(seed, theta, phi), 0, -(-n_paths // BLOCK_SIZE),
-                      n_paths, params, data, 10_000, MAX_ORDER, RESOLUTION, 2, 1)
-        c = c.sum(axis=0)
+        tallies, _ = walk(walks.WalkCall(
+            incident=incident_vector(theta, phi), direction_key=direction_key(seed, theta, phi), first_block=0,
+            n_blocks=-(-n_paths // BLOCK_SIZE), n_paths=n_paths, params=params, facet_data=data, max_bounces=10_000,
+            max_order=MAX_ORDER, resolution=RESOLUTION, n_slots=2))
+        c = tallies["counts"]
         c[0] = c.sum(axis=0)
         return c
 

@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity.estimators.counts import binomial, binomial_albedo_stderr, mirror_of, path_fractions, table_counts
-from vcavity.estimators.counts import SIMULATED
+from vcavity.estimators.counts import (SIMULATED, binomial, binomial_albedo_stderr, mirror_of, path_fractions,
+                                       table_counts)
 
 NAME = "analog"
 DESCRIPTION = "every order simulated (the default)"

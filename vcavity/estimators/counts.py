@@ -180,5 +180,5 @@ def error_estimate_exists(landed: int, target: float) -> bool:
     return landed >= 0.5 / (target * target)
 
 
-__all__ = ["ANALYTIC", "ANALYTIC_PLUS_SIMULATED", "SIMULATED", "DirectionEstimate", "binomial", "binomial_albedo_stderr", "error_estimate_exists", "mirror_of",
-           "path_fractions", "relative_error", "table_counts"]
+__all__ = ["ANALYTIC", "ANALYTIC_PLUS_SIMULATED", "SIMULATED", "DirectionEstimate", "binomial", "binomial_albedo_stderr",
+           "error_estimate_exists", "mirror_of", "path_fractions", "relative_error", "table_counts"]

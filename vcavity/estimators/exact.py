@@ -14,13 +14,11 @@ orders relative to what exits, which bounds the energy-weighted relative error o
 
 from __future__ import annotations
 
-import time
-
 import numpy as np
 
 from vcavity.estimators import paper
-from vcavity.estimators.counts import DirectionEstimate
-from vcavity.estimators.counts import ANALYTIC
+from vcavity.estimators.counts import ANALYTIC, DirectionEstimate
+from vcavity.estimators.models import DirectionModels
 from vcavity.parameters import fail
 
 NAME = "exact"
@@ -95,27 +93,10 @@ def albedo_stderr(order: int, value, value_f1, paths):
     return None
 
 
-class ExactModels:
-    """The every-order model of each incident direction of ``config``.
-
-    Parameters
-    ----------
-    config : vcavity.config.RunConfig
-        A validated run with ``estimator = "exact"`` (specular facets).
-    sensor : vcavity.sensor.grid.EqualAreaSensor
-
-    Attributes
-    ----------
-    models : list of SpecularOrders or None
-        Per direction, None before :meth:`prepare`.
-    time_s : float
-        Seconds spent computing them.
-    """
-
-    def __init__(self, config, sensor):
-        self.config, self.sensor = config, sensor
-        self.models: list | None = None
-        self.time_s = 0.0
+class ExactModels(DirectionModels):
+    """The every-order model of each incident direction of ``config`` (a validated run with
+    ``estimator = "exact"``: specular facets): :class:`SpecularOrders
+    <vcavity.analytic.specular_orders.SpecularOrders>` per direction, to :attr:`tolerance`."""
 
     @property
     def tolerance(self) -> float:
@@ -124,36 +105,19 @@ class ExactModels:
 
         return self.config.target_error if self.config.target_error is not None else DEFAULT_TOLERANCE
 
-    def prepare(self, on_direction=None) -> float:
-        """Compute every direction's model; ``on_direction(j)`` after each. Returns the seconds."""
-        if self.models is not None:
-            return 0.0
+    def compute(self, direction):
+        """The every-order model of one direction."""
         from vcavity.analytic.specular_orders import specular_orders
         from vcavity.sensor.directions import incident_vector
 
-        t0 = time.perf_counter()
         c = self.config
-        models = []
-        for j, d in enumerate(c.incidence):
-            models.append(specular_orders(c.material, incident_vector(d.theta_i, d.phi_i), self.sensor, c.max_order,
-                                          c.effective_max_bounces, tolerance=self.tolerance))
-            if on_direction is not None:
-                on_direction(j)
-        self.models = models
-        self.time_s = time.perf_counter() - t0
-        return self.time_s
+        return specular_orders(c.material, incident_vector(direction.theta_i, direction.phi_i), self.sensor,
+                               c.max_order, c.effective_max_bounces, tolerance=self.tolerance)
 
     def ready_line(self, seconds: float) -> str:
         """What ``vcavity run`` says once the models are prepared."""
         return (f"every-order model of {len(self.config.incidence)} direction(s) in {seconds:.2f} s "
                 "(deterministic: no path traced)")
-
-    def refine(self, tallies, paths) -> None:
-        """Nothing: the tolerance is set before the models are computed."""
-
-    def error_ratio(self, tallies, paths) -> float:
-        """0: no statistical error to compare with."""
-        return 0.0
 
 
 __all__ = ["NAME", "ExactModels"]

@@ -23,8 +23,9 @@ import time
 import numpy as np
 
 from vcavity.estimators import analog
-from vcavity.estimators.counts import binomial, binomial_albedo_stderr, mirror_of, table_counts
-from vcavity.estimators.counts import ANALYTIC, ANALYTIC_PLUS_SIMULATED, SIMULATED
+from vcavity.estimators.counts import (ANALYTIC, ANALYTIC_PLUS_SIMULATED, SIMULATED, binomial,
+                                       binomial_albedo_stderr, mirror_of, table_counts)
+from vcavity.estimators.models import DirectionModels
 from vcavity.parameters import fail
 
 NAME = "exact-f1"
@@ -98,52 +99,25 @@ def _seen(tallies):
     return [np.asarray(tally[0]).sum(axis=0).astype(np.float64) for tally in tallies]
 
 
-class F1Models:
-    """Per direction of ``config``, the model's cell integrals and their error estimate.
+class F1Models(DirectionModels):
+    """Per direction of ``config``, the model's cell integrals and their error estimate
+    (:class:`vcavity.analytic.exact_f1.CellModel`: its ``values`` and ``error`` per cell).
 
-    Parameters
-    ----------
-    config : vcavity.config.RunConfig
-    sensor : vcavity.sensor.grid.EqualAreaSensor
-
-    Attributes
-    ----------
-    models : list of vcavity.analytic.exact_f1.CellModel or None
-        Per direction (its ``values`` and ``error`` per cell), None before :meth:`prepare`.
-    time_s : float
-        Seconds spent computing them.
+    :meth:`prepare` computes every direction's model to ``0.1 / sqrt(N n_cells)``: a tenth
+    of the statistical error of a cell that receives an average share ``N / n_cells`` of
+    the budget ``N`` (a material whose model cannot reach it is refused, one line, before
+    any path is traced); :meth:`refine` brings each cell within a tenth of its statistical
+    error once the counts are known.
     """
 
-    def __init__(self, config, sensor):
-        self.config, self.sensor = config, sensor
-        self.models: list | None = None
-        self.time_s = 0.0
-
-    def prepare(self) -> float:
-        """Every direction's model to ``0.1 / sqrt(N n_cells)``: a tenth of the statistical
-        error of a cell that receives an average share ``N / n_cells`` of the budget ``N``.
-
-        Returns the seconds it took (0 when already prepared).
-
-        Raises
-        ------
-        vcavity.analytic.single_bounce.ModelNotApplicable
-            The model cannot reach that accuracy for this material (one line).
-        """
-        if self.models is not None:
-            return 0.0
+    def compute(self, direction):
+        """The cell model of one direction (module doc)."""
         from vcavity.analytic.exact_f1 import CellModel
         from vcavity.sensor.directions import incident_vector
 
-        t0 = time.perf_counter()
-        models = []
-        for d in self.config.incidence:
-            tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(d) * self.sensor.n_cells)
-            models.append(CellModel(self.config.material, incident_vector(d.theta_i, d.phi_i), self.sensor,
-                                    tolerance))
-        self.models = models
-        self.time_s = time.perf_counter() - t0
-        return self.time_s
+        tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(direction) * self.sensor.n_cells)
+        return CellModel(self.config.material, incident_vector(direction.theta_i, direction.phi_i), self.sensor,
+                         tolerance)
 
     def ready_line(self, seconds: float) -> str:
         """What ``vcavity run`` says once the models are prepared."""

@@ -13,8 +13,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity.estimators.counts import DirectionEstimate, mirror_of, table_counts
-from vcavity.estimators.counts import SIMULATED
+from vcavity.estimators.counts import SIMULATED, DirectionEstimate, mirror_of, table_counts
 from vcavity.parameters import fail
 
 NAME = "paper"

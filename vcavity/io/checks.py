@@ -347,6 +347,7 @@ def check_values(data: dict, location, deterministic: bool = False) -> None:
     check_albedo(data["brdf"], data["albedo"], data["cell_projected_solid_angle"], location)
 
 
-__all__ = ["ALBEDO_RTOL", "FLAG_VALUES", "TableFormatError", "check_albedo", "check_close", "check_degrees", "check_estimator_name", 
-           "check_flags", "check_integer", "check_non_negative", "check_numeric", "check_order_source", "check_orders", "check_sensor_datasets",
-           "check_shapes", "check_sweep", "check_values", "attribute_value", "check_where", "int_attribute", "refuse", "sensor_of"]
+__all__ = ["ALBEDO_RTOL", "FLAG_VALUES", "TableFormatError", "attribute_value", "check_albedo", "check_close",
+           "check_degrees", "check_estimator_name", "check_flags", "check_integer", "check_non_negative", "check_numeric",
+           "check_order_source", "check_orders", "check_sensor_datasets", "check_shapes", "check_sweep", "check_values",
+           "check_where", "int_attribute", "refuse", "sensor_of"]

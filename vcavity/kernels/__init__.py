@@ -1,1 +1,1 @@
-"""The jitted walk: light paths traced through sampled V-cavities, binned on the sensor per bounce order (trace, paper, groove)."""
+"""The jitted walks: one slot loop (loop.py) over each walk's per-path tracer (trace, smith, paper; registry.py), run on thread slots (slots.py), named and called by estimators (walks.py); scaffold.py and groove.py what the walks share."""

@@ -1,8 +1,6 @@
-"""What the two walks share (:mod:`vcavity.kernels.trace`, :mod:`vcavity.kernels.paper`).
+"""What the walks share (:mod:`vcavity.kernels.trace`, :mod:`vcavity.kernels.smith`,
+:mod:`vcavity.kernels.paper`, and their one slot loop, :mod:`vcavity.kernels.loop`).
 
-- :func:`build_kernel`: one compiled variant per scene, built once per process and cached
-  on disk under a name of its own, its thread slots run at once on Python threads
-  (:class:`SlotKernel`, :func:`run_slots`);
 - :data:`SOURCE_TAG`: the hash of every source file the kernels are built from
   (:func:`source_files`), which each kernel closes over so that Numba's cache notices
   edits to inlined code;
@@ -13,31 +11,26 @@
   world frame);
 - the outcome codes of one path.
 
-The jitted helpers are ``inline="always"``: each kernel compiles them into its own body,
+The jitted helpers are ``inline="always"``: each walk compiles them into its own body,
 with the same operations in the same order as when they were written out there.
 """
 
 from __future__ import annotations
 
-import concurrent.futures
 import hashlib
 import math
-import os
-import threading
-from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
-
-import numpy as np
 
 from vcavity._numba.jit import njit
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE, block_key, next_uniform
 
-# outcome codes of one path
+# outcome codes of one path (the order of the first statistics columns, absorbed first)
 EXITED = 0
 ABSORBED = 1
 TRUNCATED = 2
 DEGENERATE = 3
+UNWEIGHTED = 4  # a weighted walk's path of weight 0: not traced (counted as unbinned)
 
 
 def source_files() -> list[Path]:
@@ -72,166 +65,13 @@ def _source_tag() -> int:
 #: Hash of the kernels' sources (:func:`_source_tag`); a closure value of every kernel.
 SOURCE_TAG = _source_tag()
 
-_KERNELS: dict[tuple[str, int, int, int], "SlotKernel"] = {}
-
-# positions of the arguments every walk takes first (trace, smith and paper kernels)
-_N_BLOCKS, _MAX_ORDER, _RESOLUTION, _N_SLOTS = 3, 8, 9, 10
-
-
-class SlotKernel:
-    """One scene's compiled walk, its thread slots run at once on Python threads.
-
-    Called as the kernels' documented signature, ``kernel(incident, direction_key,
-    first_block, n_blocks, n_paths, params, facet_data, max_bounces, max_order,
-    resolution, n_slots, *rest)``; returns the walk's ``n_tallies`` tallies
-    ``[n_slots, max_order + 1, resolution**2]`` and its statistics ``[n_slots, n_stats]``,
-    all int64 and zeroed here. Slot ``s`` traces blocks ``s, s + n_slots, ...`` by calling
-    :attr:`walk` with ``s``, the arguments, and its rows of :meth:`outputs`; the walk is
-    compiled with ``nogil=True``, so the slots run in parallel (:func:`run_slots`: slot 0
-    in the calling thread, the others on a pool of threads). Threads rather than Numba's
-    ``prange`` in a ``parallel=True`` kernel: the parallel loop's passes and lowering were
-    a third of each variant's cold compile, and the walks are as fast (docs/performance.md,
-    "Compile time: slots on Python threads"). Results do not depend on ``n_slots`` (blocks
-    own their streams; counts are integers).
-
-    Parameters
-    ----------
-    walk : numba dispatcher
-        The jitted walk of one slot.
-    n_tallies, n_stats, n_exit_ints : int
-        Tallies the walk fills, its statistics columns, and the rows of its int64 exit
-        buffer (:func:`exit_buffers`).
-    """
-
-    def __init__(self, walk, n_tallies: int, n_stats: int, n_exit_ints: int):
-        self.walk = walk
-        self.n_tallies = n_tallies
-        self.n_stats = n_stats
-        self.n_exit_ints = n_exit_ints
-
-    def __call__(self, *args):
-        outputs = self.outputs(int(args[_N_SLOTS]), int(args[_MAX_ORDER]), int(args[_RESOLUTION]))
-
-        def walk_slot(slot):
-            self.walk(slot, *args, *self.slot_rows(outputs, slot))
-
-        # a slot without blocks leaves its rows zero: no thread for it (slot 0 always runs,
-        # so that a call without blocks compiles the walk, as Simulation.compile expects)
-        busy = max(1, min(int(args[_N_SLOTS]), int(args[_N_BLOCKS])))
-        run_slots(walk_slot, busy, compiled=bool(self.walk.overloads))
-        return outputs[:-2]
-
-    def outputs(self, n_slots: int, max_order: int, resolution: int) -> tuple:
-        """The arrays of one call: the tallies and statistics (zeroed), then the exit buffers."""
-        tally_shape = (n_slots, max_order + 1, resolution * resolution)
-        return (*[np.zeros(tally_shape, np.int64) for _ in range(self.n_tallies)],
-                np.zeros((n_slots, self.n_stats), np.int64),
-                np.empty((n_slots, 3, BLOCK_SIZE)), np.empty((n_slots, self.n_exit_ints, BLOCK_SIZE), np.int64))
-
-    @staticmethod
-    def slot_rows(outputs: tuple, slot: int) -> tuple:
-        """Slot ``slot``'s rows of :meth:`outputs`: the walk's last arguments."""
-        return tuple(array[slot] for array in outputs)
-
-
-# The slots' threads, kept between calls: a pool made and shut down per call cost ~150 us a
-# call, kept ~85 us (waking a sleeping thread and hearing back; 2 slots, docs/performance.md).
-# Threads are made as slots need them (up to _MAX_SLOT_THREADS) and sleep when idle; a
-# forked child starts a pool of its own (the parent's threads do not exist there).
-_MAX_SLOT_THREADS = 1024
-_pool: ThreadPoolExecutor | None = None
-_pool_lock = threading.Lock()
-
-
-def _slot_pool() -> ThreadPoolExecutor:
-    global _pool
-    with _pool_lock:
-        if _pool is None:
-            _pool = ThreadPoolExecutor(max_workers=_MAX_SLOT_THREADS, thread_name_prefix="vcavity-slot")
-        return _pool
-
-
-def _forget_pool() -> None:
-    global _pool, _pool_lock
-    _pool, _pool_lock = None, threading.Lock()
-
-
-os.register_at_fork(after_in_child=_forget_pool)
-
-
-def run_slots(walk_slot, n_slots: int, compiled: bool) -> None:
-    """``walk_slot(s)`` for ``s`` in ``range(n_slots)``, concurrently; slot 0 in this thread.
-
-    The other slots run on a pool of threads kept between calls. A walk not yet compiled
-    (or loaded from the cache) in this process runs slot 0 first, alone: the compile
-    happens once, in the calling thread, where the compile notice and Ctrl-C work as for
-    any call (:class:`vcavity.simulate.warmup.CompileNotice`). Returns when every slot
-    has; an exception in one is raised here after the others end.
-    """
-    if n_slots < 1:
-        return
-    if n_slots == 1:
-        walk_slot(0)
-        return
-    if not compiled:
-        walk_slot(0)
-    futures = [_slot_pool().submit(walk_slot, slot) for slot in range(1, n_slots)]
-    try:
-        if compiled:
-            walk_slot(0)
-    finally:
-        # every slot ends before this returns or raises: no walk outlives its call's arrays
-        concurrent.futures.wait(futures)
-    for future in futures:
-        future.result()
-
-
-def build_kernel(prefix: str, make, dist_kind: int, facet_kind: int, facet_variant: int,
-                 n_tallies: int, n_stats: int, n_exit_ints: int = 2) -> SlotKernel:
-    """The compiled walk ``make`` builds for one scene, built once per process.
-
-    Parameters
-    ----------
-    prefix : str
-        Name of the walk (``"kernel"``, ``"paper_kernel"``); with the three integers it
-        names the variant.
-    make : callable
-        ``make(DIST, FACET, VARIANT, SOURCE_TAG)`` returns the Python walk of one slot, a
-        closure over those four integers only: closures over plain ints are cacheable,
-        closures over dispatchers are not, and the tag makes source edits part of the
-        cache key.
-    dist_kind, facet_kind, facet_variant : int
-        The distribution and facet model (positions in their registries) and the
-        facet's compiled variant.
-    n_tallies, n_stats, n_exit_ints : int
-        What the walk fills, and the rows of its int64 exit buffer (:class:`SlotKernel`).
-
-    Returns
-    -------
-    SlotKernel
-        Over ``njit(cache=True, nogil=True)`` of the walk.
-    """
-    key = (int(dist_kind), int(facet_kind), int(facet_variant))
-    if (prefix, *key) in _KERNELS:
-        return _KERNELS[(prefix, *key)]
-    DIST, FACET, VARIANT = key
-    walk = make(DIST, FACET, VARIANT, SOURCE_TAG)
-    # Every variant gets its own name: Numba names the cache files and the compiled
-    # symbols after __qualname__ (plus a per-process counter), so variants compiled in
-    # different processes under one name collided when loaded together ("descr is NULL").
-    walk.__qualname__ = walk.__name__ = f"{prefix}_d{DIST}_f{FACET}_v{VARIANT}"
-    kernel = SlotKernel(njit(cache=True, nogil=True)(walk), n_tallies, n_stats, n_exit_ints)
-    _KERNELS[(prefix, *key)] = kernel
-    return kernel
-
-
 @njit(cache=True, inline="always")
 def exit_buffers(exits, exit_ints):
     """A block's exits, gathered during its walks and binned together after them.
 
     Binned a block at a time, the binning's loop (sqrt, division, atan polynomial) runs in
     SIMD lanes, ~12 ns a path less than binning each exit as it leaves (docs/performance.md).
-    The slot's buffers come from :class:`SlotKernel` (allocated in Python: an ``np.empty``
+    The slot's buffers come from :class:`vcavity.kernels.loop.SlotKernel` (allocated in Python: an ``np.empty``
     in the walk would compile NumPy's allocation for each dtype into every variant).
 
     Parameters
@@ -338,5 +178,5 @@ def to_world(dx, dy, cos_phi, sin_phi):
     return wx, wy
 
 
-__all__ = ["EXITED", "ABSORBED", "TRUNCATED", "DEGENERATE", "SOURCE_TAG", "source_files", "build_kernel", "SlotKernel", "run_slots", "exit_buffers",
+__all__ = ["EXITED", "ABSORBED", "TRUNCATED", "DEGENERATE", "UNWEIGHTED", "SOURCE_TAG", "source_files", "exit_buffers",
            "block_start", "sample_groove", "groove_frame", "to_world"]

@@ -3,16 +3,11 @@
 An estimator names the walk it needs (:mod:`vcavity.estimators.registry`): ``"v-cavity"``
 (the V-groove walk, :mod:`vcavity.kernels.trace`), ``"smith"`` (Smith's random walk,
 :mod:`vcavity.kernels.smith`) or ``"paper"`` (the V-groove walk started on a facet,
-:mod:`vcavity.kernels.paper`). Each walk module declares ``NAME``, its tally planes
-(``TALLIES``) and statistics columns (``STATS``) by name, and ``get_kernel(dist_kind,
-facet_kind, facet_variant)``; :func:`get` builds a scene's :class:`Walk`, which a run
-calls with a :class:`WalkCall` and which answers with its tallies and statistics by name,
-summed over its thread slots.
-
-Statistics columns every walk shares (further ones are a walk's own):
-``absorbed``, ``truncated``, ``degenerate`` (paths that ended so), ``max_bounces`` (the
-deepest path: merged by maximum, every other column by sum) and ``unbinned`` (paths that
-left but were not binned: exits below the first binned order, or zero-weight paths).
+:mod:`vcavity.kernels.paper`), the walks of :mod:`vcavity.kernels.registry`. :func:`get`
+builds a scene's :class:`Walk`, the one slot loop (:mod:`vcavity.kernels.loop`) compiled
+for that walk and scene, which a run calls with a :class:`WalkCall` and which answers
+with its tally planes and statistics columns by name, summed over its thread slots
+(``max_bounces``: the maximum).
 """
 
 from __future__ import annotations
@@ -21,10 +16,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from vcavity.kernels import paper, smith, trace
-
-#: The walk modules, by the names estimators give them.
-WALKS = {module.NAME: module for module in (trace, smith, paper)}
+from vcavity.kernels import loop
+from vcavity.kernels import registry as walk_registry
+from vcavity.microfacet import registry as distributions
 
 
 @dataclass(frozen=True)
@@ -76,15 +70,14 @@ class Walk:
     name : str
     tallies, stats : tuple of str
         The walk's tally planes and statistics columns.
-    kernel : vcavity.kernels.scaffold.SlotKernel
+    kernel : vcavity.kernels.loop.SlotKernel
     """
 
     def __init__(self, module, dist_kind: int, facet_kind: int, facet_variant: int):
         self.name = module.NAME
         self.tallies = module.TALLIES
         self.stats = module.STATS
-        self._arguments = module.arguments
-        self.kernel = module.get_kernel(dist_kind, facet_kind, facet_variant)
+        self.kernel = loop.build(walk_registry.kind_of(module.NAME), dist_kind, facet_kind, facet_variant)
 
     @property
     def compiled(self) -> bool:
@@ -97,7 +90,7 @@ class Walk:
         ``tallies[name]`` is int64 ``(max_order + 1, resolution**2)`` (order slot 0: beyond
         ``max_order``); ``stats[name]`` an int (``max_bounces``: the maximum over the slots).
         """
-        *planes, per_slot = self.kernel(*self._arguments(call))
+        *planes, per_slot = self.kernel(call)
         tallies = {name: plane.sum(axis=0) for name, plane in zip(self.tallies, planes)}
         stats = {name: (per_slot[:, k].max() if name == "max_bounces" else per_slot[:, k].sum())
                  for k, name in enumerate(self.stats)}
@@ -112,11 +105,13 @@ def get(name: str, dist_kind: int, facet_kind: int, facet_variant: int) -> Walk:
     KeyError
         An unknown walk (naming the registered ones).
     ValueError
-        The walk cannot walk the distribution (the Smith walk, :func:`vcavity.kernels.smith.walkable`).
+        The walk cannot walk the distribution (:func:`vcavity.kernels.smith.walkable`).
     """
-    if name not in WALKS:
-        raise KeyError(f"unknown walk {name!r}; registered: {', '.join(WALKS)}")
-    return Walk(WALKS[name], dist_kind, facet_kind, facet_variant)
+    module = walk_registry.get(name)
+    reason = module.walkable(distributions.MODULES[distributions.REGISTRY.check_kind(dist_kind, "walks.get")].NAME)
+    if reason is not None:
+        raise ValueError(reason)
+    return Walk(module, dist_kind, facet_kind, facet_variant)
 
 
-__all__ = ["WALKS", "Walk", "WalkCall", "get"]
+__all__ = ["Walk", "WalkCall", "get"]

@@ -126,7 +126,7 @@ class Simulation:
 
     @property
     def kernel(self):
-        """The walk's compiled kernel (:class:`vcavity.kernels.scaffold.SlotKernel`), or None."""
+        """The walk's compiled kernel (:class:`vcavity.kernels.loop.SlotKernel`), or None."""
         return None if self.walk is None else self.walk.kernel
 
     @property

@@ -138,9 +138,9 @@ def execute(plan: RunPlan, simulation, say: Callable[[str], None], progress: Pro
                 f"checkpoint {path} holds the finished run: --resume writes the table")
             return None
         except OSError as exc:
-            raise PlanError(f"{out.field} = {out.shown!r}: writing the table failed ({exc.strerror or _first_line(exc)}); "
-                            "nothing was written and an existing file is unchanged; the checkpoint keeps the run") \
-                from None
+            reason = exc.strerror or _first_line(exc)
+            raise PlanError(f"{out.field} = {out.shown!r}: writing the table failed ({reason}); nothing was written "
+                            "and an existing file is unchanged; the checkpoint keeps the run") from None
     path.unlink(missing_ok=True)  # the table holds everything now
     return table
 
