@@ -1,6 +1,7 @@
 """The registries' dispatch (vcavity/_numba/dispatch.py) on stand-in modules: a constant kind
 compiles its own module's function only, a run-time kind the chain over all of them, an
-optional function falls back to ``missing``, and Python calls check the kind; and ``apart``:
+optional function falls back to ``missing``, and Python calls check the kind; with ``direct``
+the module's own function (kind first) is the call; and ``apart``:
 constants stay constants inside the function compiled apart, which has NumPy's error model.
 Deterministic."""
 
@@ -54,6 +55,50 @@ def test_a_constant_kind_compiles_only_its_own_module():
 
     assert constant_kind(1.5) == 6.0
     assert other.signatures == []  # never typed, so never compiled
+
+
+@numba.njit
+def _direct_twice(kind, x):
+    return 2.0 * x + kind  # the kind it is called with: its own position in the registry
+
+
+@numba.njit
+def _direct_plus_one(kind, x):
+    return x + 1.0 + kind
+
+
+def test_direct_dispatch_runs_the_module_s_own_code_with_its_kind():
+    """``direct``: each module's function takes the kind first; a constant kind's call is that
+    function itself (no wrapper), the other module's stays uncompiled; a run-time kind and
+    Python calls pass the kind on too."""
+
+    @numba.njit
+    def other(kind, x):
+        return x - 1.0
+
+    op = dispatcher((_module("good", op=_direct_twice), _module("other", op=other)), "op", ("x",),
+                    "standin.registry", direct=True)
+
+    @numba.njit
+    def constant_kind(x):
+        return op(0, x)
+
+    assert constant_kind(1.5) == 3.0
+    assert other.signatures == []  # never typed, so never compiled
+    both = dispatcher((_module("first", op=_direct_twice), _module("second", op=_direct_plus_one)), "op", ("x",),
+                      "standin.registry", direct=True)
+
+    @numba.njit
+    def run_time_kind(kind, x):
+        return both(kind, x)
+
+    @numba.njit
+    def second(x):
+        return both(1, x)
+
+    assert second(1.5) == 3.5  # the second module's own code, called with its kind
+    assert [run_time_kind(kind, 1.5) for kind in (0, 1)] == [3.0, 3.5]
+    assert [both(kind, 1.5) for kind in (0, 1)] == [3.0, 3.5]  # from Python
 
 
 def test_a_run_time_kind_takes_the_chain_over_every_module():

@@ -66,7 +66,8 @@ def check_kind(modules: tuple, kind, owner: str) -> int:
     return value
 
 
-def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, missing: str | None = None):
+def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, missing: str | None = None,
+               direct: bool = False):
     """A compile-time dispatched ``op(kind, *argnames)`` over ``modules``.
 
     Parameters
@@ -107,6 +108,8 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
             scope = {"math": math}
             if missing is not None and not hasattr(module, op):
                 exec(f"def call(kind, {args}):\n    return {missing}\n", scope)
+            elif direct:
+                return getattr(getattr(module, op), "py_func", getattr(module, op))
             else:
                 scope["implementation"] = getattr(module, op)
                 exec(f"def call(kind, {args}):\n    return implementation({args})\n", scope)
@@ -117,8 +120,10 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
                  if missing is None or hasattr(module, op)}
         scope["math"] = math
 
+        call_args = f"kind, {args}" if direct else args
+
         def result(k):
-            return f"implementation_{k}({args})" if f"implementation_{k}" in scope else missing
+            return f"implementation_{k}({call_args})" if f"implementation_{k}" in scope else missing
 
         body = [f"def call(kind, {args}):"]
         for k in range(len(modules) - 1):
@@ -130,7 +135,8 @@ def dispatcher(modules: tuple, op: str, argnames: tuple[str, ...], owner: str, m
 
     scope = {"modules": modules, "resolve_constant": resolve_constant, "resolve_variable": resolve_variable,
              "check_kind": check_kind, "owner": f"{owner}.{op}"}
-    exec(f"def {op}(kind, {args}):\n    return modules[check_kind(modules, kind, owner)].{op}({args})\n"
+    exec(f"def {op}(kind, {args}):\n    return modules[check_kind(modules, kind, owner)].{op}("
+         f"{'kind, ' if direct else ''}{args})\n"
          f"def typer_constant(kind, {args}):\n    return resolve_constant(kind)\n"
          f"def typer_variable(kind, {args}):\n    return resolve_variable(kind)\n", scope)
     function = scope[op]

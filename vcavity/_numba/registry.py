@@ -139,7 +139,7 @@ class Registry:
         """``kind`` as an int, or ``ValueError`` (naming ``owner.where``) when it is not a dispatch index."""
         return check_kind(self.modules, kind, f"{self.owner}.{where}")
 
-    def dispatcher(self, op: str, argnames: tuple[str, ...], missing: str | None = None):
+    def dispatcher(self, op: str, argnames: tuple[str, ...], missing: str | None = None, direct: bool = False):
         """``op(kind, *argnames)``: every module's function ``op``, dispatched on ``kind``.
 
         Parameters
@@ -151,13 +151,16 @@ class Registry:
         missing : str, optional
             For an optional ``op``, what a module without it returns in the run-time chain
             (:func:`vcavity._numba.dispatch.dispatcher`).
+        direct : bool, optional
+            Every module's ``op`` takes ``kind`` first: a constant kind compiles the module's
+            own code apart, no wrapper level (:func:`vcavity._numba.dispatch.dispatcher`).
 
         Returns
         -------
         function
             Callable from Python and from jitted code (:func:`vcavity._numba.dispatch.dispatcher`).
         """
-        return dispatcher(self.modules, op, argnames, self.owner, missing)
+        return dispatcher(self.modules, op, argnames, self.owner, missing, direct)
 
 
 __all__ = ["Registry"]

@@ -48,10 +48,9 @@ def _make_loop(WALK, WEIGHTED, DIST, FACET, VARIANT, SOURCE_TAG):
     """The Python loop of one slot of one walk and scene (module doc), for :func:`build`."""
 
     def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data, max_bounces,
-             max_order, resolution, n_slots, first_binned_order, weight_scale, counts, weights, squares, stats, exits,
-             exit_ints):
-        # counts, weights, squares [max_order + 1, resolution**2] and stats [n_stats]: this
-        # slot's rows, zeroed (weights and squares: a weighted walk's); exits, exit_ints: its
+             max_order, resolution, n_slots, first_binned_order, weight_scale, tallies, stats, exits, exit_ints):
+        # tallies [planes, max_order + 1, resolution**2] (counts; a weighted walk's weights and
+        # squares) and stats [n_stats]: this slot's rows, zeroed; exits, exit_ints: its
         # scratch rows (exit_buffers; row 2 of exit_ints: the exits' weights)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
         ix = incident[0]
@@ -106,11 +105,11 @@ def _make_loop(WALK, WEIGHTED, DIST, FACET, VARIANT, SOURCE_TAG):
                     unbinned += 1
             bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
             for j in range(n_exits):
-                counts[exit_row[j], exit_cell[j]] += 1
+                tallies[0, exit_row[j], exit_cell[j]] += 1
                 if WEIGHTED:
                     q = exit_q[j]
-                    weights[exit_row[j], exit_cell[j]] += q
-                    squares[exit_row[j], exit_cell[j]] += q * q
+                    tallies[1, exit_row[j], exit_cell[j]] += q
+                    tallies[2, exit_row[j], exit_cell[j]] += q * q
         stats[0] = absorbed
         stats[1] = truncated
         stats[2] = degenerate
@@ -160,14 +159,13 @@ class SlotKernel:
         # so that a call without blocks compiles the walk, as Simulation.compile expects)
         busy = max(1, min(int(call.n_slots), int(call.n_blocks)))
         run_slots(walk_slot, busy, compiled=bool(self.walk.overloads))
-        return outputs[:self.n_tallies] + (outputs[3],)
+        return tuple(outputs[0][:, plane] for plane in range(self.n_tallies)) + (outputs[1],)
 
     def outputs(self, n_slots: int, max_order: int, resolution: int) -> tuple:
         """The arrays of one call: three tally planes (those the walk has not: one cell, never
         written), the statistics (zeroed), then the exit buffers."""
-        shape = (n_slots, max_order + 1, resolution * resolution)
-        planes = [np.zeros(shape if k < self.n_tallies else (n_slots, 1, 1), np.int64) for k in range(3)]
-        return (*planes, np.zeros((n_slots, self.n_stats), np.int64), np.empty((n_slots, 3, BLOCK_SIZE)),
+        return (np.zeros((n_slots, self.n_tallies, max_order + 1, resolution * resolution), np.int64),
+                np.zeros((n_slots, self.n_stats), np.int64), np.empty((n_slots, 3, BLOCK_SIZE)),
                 np.empty((n_slots, 3, BLOCK_SIZE), np.int64))
 
     @staticmethod

@@ -18,7 +18,7 @@ scale ``Q`` (:data:`vcavity.estimators.paper.WEIGHT_SCALE`, passed in) and a fre
 uniform ``u`` (stochastic rounding, so ``E[q] / Q = w`` exactly), and ``q^2`` for the
 variance. Merging stays exact in any order, so tables do not depend on threads or
 chunking. The walk is the one slot loop of :mod:`vcavity.kernels.loop` with this module's
-per-path tracer (:data:`trace_path`); a path of weight 0 is not traced (outcome
+per-path tracer (:func:`trace_path`); a path of weight 0 is not traced (outcome
 ``UNWEIGHTED``, counted with the unbinned paths).
 """
 
@@ -28,7 +28,6 @@ import math
 
 import numpy as np
 
-from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
@@ -57,12 +56,12 @@ prepare_direction = trace.prepare_direction
 
 
 @njit(cache=True, inline="always")
-def _trace_weighted_path(state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_variant, facet_data,
-                         max_bounces, weight_scale):
+def trace_path(kind, state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_variant, facet_data,
+               max_bounces, weight_scale):
     """Trace one path started on a uniform point of a groove's facet, weighted by its lit area.
 
     Returns ``(state, outcome, bounces, wx, wy, wz, q)`` as the V-groove walk's
-    ``_trace_path``, with ``q = floor(w Q + u)`` the path's integer weight (``Q =
+    :func:`vcavity.kernels.trace.trace_path`, with ``q = floor(w Q + u)`` the path's integer weight (``Q =
     weight_scale``) and the exit direction normalised; a back-facing or shadowed start has
     weight 0 and is not traced (``UNWEIGHTED``). ``setup`` is not used.
     """
@@ -111,9 +110,6 @@ def _trace_weighted_path(state, ix, iy, iz, setup, params, dist_kind, facet_kind
     inv = 1.0 / math.sqrt(wx * wx + wy * wy + dz * dz)
     return state, EXITED, k, wx * inv, wy * inv, dz * inv, q
 
-
-#: The path walk compiled apart from the loop (as :data:`vcavity.kernels.trace.trace_path`).
-trace_path = apart(_trace_weighted_path, __name__)
 
 
 __all__ = ["NAME", "STATS", "TALLIES", "WEIGHTED", "prepare_direction", "trace_path", "walkable"]

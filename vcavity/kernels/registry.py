@@ -12,16 +12,22 @@ of :data:`WALK_MODULES` defines:
                            weighted walk's three more (``absorbed_weight``, ...)
 ``WEIGHTED``               whether its paths carry integer weights ``q``
 ``walkable(distribution)`` None where it can walk the distribution, else why not (one line)
-``prepare_direction(ix,    jitted: what every path of a direction shares (Smith: ``Lambda(i)``)
-iy, iz, params,
+``prepare_direction(kind,  jitted: what every path of a direction shares (Smith: ``Lambda(i)``)
+ix, iy, iz, params,
 dist_kind)``
-``trace_path(state, ix,    jitted, compiled apart (:func:`vcavity._numba.dispatch.apart`): one
-iy, iz, setup, params,     path, ``-> (state, outcome, bounces, wx, wy, wz, q)`` with an outcome
-dist_kind, facet_kind,     code of :mod:`vcavity.kernels.scaffold` and the world-frame exit
-facet_variant, facet_data, direction; it draws random numbers only from ``state``, writes no
-max_bounces,               memory and never raises
+``trace_path(kind, state,  jitted, ``inline="always"``: one path, ``-> (state, outcome, bounces,
+ix, iy, iz, setup,         wx, wy, wz, q)`` with an outcome code of :mod:`vcavity.kernels.scaffold`
+params, dist_kind,         and the world-frame exit direction; it draws random numbers only
+facet_kind,                from ``state``, writes no memory and never raises
+facet_variant, facet_data,
+max_bounces,
 weight_scale)``
 ========================  ========================================================================
+
+``kind`` (the walk's own position, unused by it) comes first with exactly these argument
+names: the dispatch compiles a constant kind's call as the module's own code, apart from
+the loop and inlined by LLVM, with no wrapper between them
+(:func:`vcavity._numba.dispatch.dispatcher`, ``direct``).
 
 :data:`trace_path` and :data:`prepare_direction` dispatch on a walk's position in the
 registry (its ``kind``): a compile-time constant in the loop, so each compiled walk holds
@@ -48,8 +54,8 @@ kind_of = REGISTRY.kind_of
 #: Per walk, one path (module doc); ``kind`` a compile-time constant in jitted code.
 trace_path = REGISTRY.dispatcher("trace_path", ("state", "ix", "iy", "iz", "setup", "params", "dist_kind",
                                                 "facet_kind", "facet_variant", "facet_data", "max_bounces",
-                                                "weight_scale"))
+                                                "weight_scale"), direct=True)
 #: Per walk, what every path of a direction shares.
-prepare_direction = REGISTRY.dispatcher("prepare_direction", ("ix", "iy", "iz", "params", "dist_kind"))
+prepare_direction = REGISTRY.dispatcher("prepare_direction", ("ix", "iy", "iz", "params", "dist_kind"), direct=True)
 
 __all__ = ["MODULES", "NAMES", "REGISTRY", "WALK_MODULES", "get", "kind_of", "prepare_direction", "trace_path"]

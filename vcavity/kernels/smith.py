@@ -24,7 +24,6 @@ import math
 
 import numpy as np
 
-from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
@@ -42,20 +41,21 @@ WEIGHTED = False
 
 
 @njit(cache=True, inline="always")
-def prepare_direction(ix, iy, iz, params, dist_kind):
+def prepare_direction(kind, ix, iy, iz, params, dist_kind):
     """``Lambda(i)``: the first step's masking, the same for every path of a direction."""
     return distributions.smith_lambda(dist_kind, ix, iy, iz, params)
 
 
 @njit(cache=True, inline="always")
-def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, facet_variant, facet_data,
-                      max_bounces, weight_scale):
+def trace_path(kind, state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_variant, facet_data,
+               max_bounces, weight_scale):
     """Trace one path from the light into the Smith microsurface until it leaves or ends.
 
     ``lam_i`` is ``Lambda(i)``, the same for every path of a direction
     (:func:`prepare_direction`). Returns ``(state, outcome, bounces, wx, wy, wz, q)`` as the
-    V-groove walk's ``_trace_path`` (``q = 0``: weight-1 paths).
+    V-groove walk's :func:`vcavity.kernels.trace.trace_path` (``q = 0``: weight-1 paths).
     """
+    lam_i = setup
     wx, wy, wz = -ix, -iy, -iz
     # log C1 of the current height, C1 the share of the surface below it (0: above all of it);
     # in logarithms a step costs an exponential deviate (no log) instead of two powers
@@ -109,9 +109,6 @@ def _trace_smith_path(state, ix, iy, iz, lam_i, params, dist_kind, facet_kind, f
         wy = sin_p * dx + cos_p * dy
     return state, EXITED, k, wx, wy, wz, np.int64(0)
 
-
-#: The path walk compiled apart from the loop (as :data:`vcavity.kernels.trace.trace_path`).
-trace_path = apart(_trace_smith_path, __name__)
 
 
 #: None when the Smith walk can use a distribution, else why not (one line).

@@ -1,14 +1,15 @@
 """The V-groove random walk (physics.md sec. 5): one path traced from the light through a sampled groove.
 
 The walk of a scene is the one slot loop of :mod:`vcavity.kernels.loop` with this
-module's per-path tracer, :data:`trace_path`; its variants are closed over three integer
+module's per-path tracer, :func:`trace_path`; its variants are closed over three integer
 constants, the distribution and the facet model (positions in their registries,
 :mod:`vcavity.microfacet.registry`, :mod:`vcavity.facet.registry`) and the facet's
 compiled variant. Each variant contains only the code its scene needs: the registries pick
 the distribution's trig-free groove sampler and the facet's event at compile time, so a
 mirror never draws for Fresnel, ``kd = 0`` never samples the body and ``eta = 1`` never
-evaluates Fresnel. The path walk, the sampler and the event are each compiled apart and
-inlined by LLVM (:func:`vcavity._numba.dispatch.apart`).
+evaluates Fresnel. The path walk (:func:`trace_path`, dispatched by
+:mod:`vcavity.kernels.registry`), the sampler and the event are each compiled apart and
+inlined by LLVM (docs/performance.md, "Compile time: compiled apart").
 
 The walk is analog: every path has weight 1, so per-cell results are integer counts and
 merging per-thread histograms is exact in any order.
@@ -25,7 +26,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from vcavity._numba.dispatch import apart
 from vcavity._numba.jit import njit
 from vcavity.facet import registry as facets
 from vcavity.facet.common import ABSORBED as FACET_ABSORBED
@@ -50,21 +50,21 @@ def walkable(distribution: str) -> None:
 
 
 @njit(cache=True, inline="always")
-def prepare_direction(ix, iy, iz, params, dist_kind):
+def prepare_direction(kind, ix, iy, iz, params, dist_kind):
     """Nothing to compute once per direction: 0."""
     return 0.0
 
 
 @njit(cache=True, inline="always")
-def _trace_path(state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_variant, facet_data,
-                max_bounces, weight_scale):
+def trace_path(kind, state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_variant, facet_data,
+               max_bounces, weight_scale):
     """Trace one path from the light into a sampled groove until it leaves or ends.
 
     Returns ``(state, outcome, bounces, wx, wy, wz, q)``: the advanced stream state, one of
     ``EXITED / ABSORBED / TRUNCATED / DEGENERATE``, the number of facet events, the
     world-frame exit direction (unit to rounding, valid when ``outcome == EXITED``; the
     caller bins it, or not) and the weight (0: weight-1 paths carry none). ``setup`` and
-    ``weight_scale`` are not used (the loop's signature, :mod:`vcavity.kernels.loop`).
+    ``weight_scale`` are not used, nor ``kind`` (the registry's signature, :mod:`vcavity.kernels.registry`).
     Nothing is written to memory here, so threads share no cache lines in the hot loop.
     """
     state, tan_m, cos_phi, sin_phi = sample_groove(state, dist_kind, params)
@@ -98,11 +98,6 @@ def _trace_path(state, ix, iy, iz, setup, params, dist_kind, facet_kind, facet_v
     wx, wy = to_world(dx, dy, cos_phi, sin_phi)
     return state, EXITED, k, wx, wy, dz, np.int64(0)
 
-
-#: The path walk compiled apart from the loop, once per variant (its kinds are the loop's
-#: constants), and inlined by LLVM: 0.9 s of CPU less per variant's cold compile than Numba
-#: inlining it (docs/performance.md, "Compile time: compiled apart").
-trace_path = apart(_trace_path, __name__)
 
 
 def variants() -> list[tuple[str, str, str]]:
