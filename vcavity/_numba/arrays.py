@@ -1,9 +1,9 @@
 """Arrays in jitted code: set-up without parallel loops, and views without reference counts.
 
 :func:`filled`: under ``parallel=True`` Numba turns ``np.zeros``, ``np.full``, ``np.ones`` and whole-array
-expressions (``a[:] = v``, ``a += b``) into parallel loops, each lowered as one more gufunc:
-0.3-0.5 s of CPU apiece on a cold cache (docs/performance.md, "Compile time: literal kinds
-first"), for set-up work that takes microseconds. :func:`filled` does the same with a plain
+expressions (``a[:] = v``, ``a += b``) into parallel loops, each lowered as one more gufunc
+(its cold compile: docs/performance.md, "Figures from the code's comments"), for set-up work
+that takes microseconds. :func:`filled` does the same with a plain
 loop, compiled once per array type and cached.
 
 :func:`borrowed`: a function compiled apart (:func:`vcavity._numba.dispatch.apart` and the

@@ -19,18 +19,16 @@ Callers stay cacheable: nothing here lands in their closures.
 The overload prefers literal types (``prefer_literal=True``). Numba's default tries an
 overload with the arguments' non-literal types first, and the run-time chain types for a
 plain integer: a constant ``kind`` then got the whole chain, every registered module's
-``op`` typed, inlined and lowered into the caller, to be folded away by LLVM at the end.
-The default variant's cold compile spent 12.7 s of CPU on that, 8.0 s with literals first
-(docs/performance.md, "Compile time: literal kinds first").
+``op`` typed, inlined and lowered into the caller, to be folded away by LLVM at the end
+(a third of a variant's cold compile: docs/performance.md, "Figures from the code's comments").
 
 **Compiled apart, inlined by LLVM.** A constant kind's call, and a function given to
 :func:`apart`, is compiled once per caller's compile as a function of its own
 (``inline="never"``) that LLVM inlines (``forceinline``), instead of Numba inlining its IR
 (``inline="always"``). Numba compiles an ``inline="always"`` overload in full anyway, then
 types and lowers its IR again inside every caller, and every level of such inlining
-repeats the work of the levels below: the default kernel variant's cold compile was 6.7 s
-of CPU, 4.2 s with the facet event, the distribution's sampler and the walk compiled apart
-(docs/performance.md, "Compile time: compiled apart"). The walk's speed is unchanged under
+repeats the work of the levels below (what compiling the facet event, the distribution's
+sampler and the walk apart saves: docs/performance.md, "Figures from the code's comments"). The walk's speed is unchanged under
 two conditions, both measured: the functions apart use NumPy's error model (``error_model
 ="numpy"``, as Numba's parallel loops do: no test and raise for a division by zero), and
 their callers pass arrays as :func:`vcavity._numba.arrays.borrowed` views (no reference

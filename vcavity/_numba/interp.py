@@ -1,8 +1,8 @@
 """Linear interpolation of a scalar in jitted code, without Numba's ``np.interp``.
 
 Numba's ``np.interp`` compiles a general implementation (array or scalar ``x``, slopes
-precomputed or not, a guessed binary search) that cost the analytic models' cold compile
-~3 s of CPU (docs/performance.md, "Compile time: compiled apart"); the models interpolate one
+precomputed or not, a guessed binary search), a sizeable part of the analytic models' cold
+compile (docs/performance.md, "Figures from the code's comments"); the models interpolate one
 scalar at a time in small increasing tables. :func:`interp` is that case alone, with NumPy's
 arithmetic (``numpy/core/src/multiarray/compiled_base.c``, ``arr_interp``), so it returns
 what ``np.interp`` returns, bit for bit.

@@ -47,11 +47,11 @@ MAX_REFINE_NODES = 256
 #: Largest sub-cell rules (points per cell side) reached by refinement: body, specular.
 MAX_SUB_BODY = 32
 MAX_SUB = 256
-#: Bound on the refinement's body work, in (o point) x (m node) products: 1e10 is about
-#: 15 s on one core, 25 x the figure 7(b) material at 60 deg refined to 1e9 paths' tolerance;
-#: a tolerance that needs more raises ModelNotApplicable.
+#: Bound on the refinement's body work, in (o point) x (m node) products: 25 x what the
+#: figure 7(b) material at 60 deg needs refined to 1e9 paths' tolerance (its seconds:
+#: docs/performance.md); a tolerance that needs more raises ModelNotApplicable.
 MAX_BODY_WORK = 1e10
-#: Bound on the refinement's specular sub-cell work, in points (2e8: about 15 s).
+#: Bound on the refinement's specular sub-cell work, in points (as long as the body's bound).
 MAX_SPECULAR_WORK = 2e8
 #: Quantile of the relative differences that every cell's estimate reaches (:func:`guarded`).
 GUARD_QUANTILE = 0.9

@@ -46,9 +46,8 @@ EXTREMUM_STEPS = 3
 # _point and _square are compiled once each and inlined by LLVM (``forceinline``), not
 # IR-inlined by Numba (``inline="always"``): _walk and _piece call _point at seven places, and
 # each IR copy carried the run-time chains over every distribution's sample_normal and
-# smith_lambda and every facet's reflectance through Numba's passes. Four models' cold
-# compile 40 -> 31 s of CPU, warm the same or 2 % faster, results identical
-# (docs/performance.md, "Compile time: literal kinds first").
+# smith_lambda and every facet's reflectance through Numba's passes (the cold compile this
+# saves: docs/performance.md, "Figures from the code's comments").
 @njit(cache=True, forceinline=True)
 def _point(tau, u2, ix, iy, iz, kind, params, facet_kind, facet_data, masking, walter_fit, lambda_i,
            resolution):
@@ -250,8 +249,8 @@ def _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_d
     """Per node ``k``: ``w_k ray(u2_k)`` per peak cell (with ``integrate``) and the ray's state hash.
 
     One compiled driver for both uses, ``integrate`` a run-time flag: with a literal flag
-    in two drivers Numba compiled :func:`_walk` twice, and the cold model cost 53 s of CPU
-    instead of 39 s (docs/performance.md, "The default suite on two cores").
+    in two drivers Numba compiled :func:`_walk` twice (the cost: docs/performance.md,
+    "Figures from the code's comments").
     """
     lambda_i = _lambda_i(incident, kind, params, masking, walter_fit)
     # every row is written below; np.zeros would be a parallel loop of its own (_numba.arrays)

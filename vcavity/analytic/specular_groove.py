@@ -138,8 +138,9 @@ def log_reflectance_table(facet_kind, facet_data):
     """``log F`` of the facet at ``N + 1`` equally spaced cosines, for :func:`groove_outcomes`.
 
     A survival is a product of up to thousands of reflectances (deep grooves), each one an
-    exact Fresnel evaluation of ~100 ns for a conductor. A table of ``log F`` read by cubic
-    interpolation costs a tenth of that; ``N`` is the smallest of :data:`LOG_TABLE_SIZES`
+    exact Fresnel evaluation, costly for a conductor. A table of ``log F`` read by cubic
+    interpolation costs a fraction of that (docs/performance.md, "Figures from the code's
+    comments"); ``N`` is the smallest of :data:`LOG_TABLE_SIZES`
     whose interpolant is within :data:`LOG_TABLE_ERROR` of the exact ``log F`` at
     ``8 N`` check points (Fresnel reflectances of the specular facets are smooth on
     ``[0, 1]``: 4096 nodes suffice for metals and dielectrics of everyday indices).

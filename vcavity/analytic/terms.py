@@ -126,7 +126,7 @@ def table_transmittance(c, table, facet_kind, facet_data):
 
     The IL facet's T (W eq. 22) is smooth on ``[0, 1]`` for moderate eta, so the cubic
     error is ``O(h^4)``: below 1e-11 where the table is used (checked at construction);
-    about 3x faster than the closed form in the body-integral loops.
+    faster than the closed form in the body-integral loops (docs/performance.md).
     """
     n = table.shape[0]
     if n == 0:

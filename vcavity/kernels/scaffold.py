@@ -70,7 +70,8 @@ def exit_buffers(exits, exit_ints):
     """A block's exits, gathered during its walks and binned together after them.
 
     Binned a block at a time, the binning's loop (sqrt, division, atan polynomial) runs in
-    SIMD lanes, ~12 ns a path less than binning each exit as it leaves (docs/performance.md).
+    SIMD lanes, faster than binning each exit as it leaves (docs/performance.md, "Figures
+    from the code's comments").
     The slot's buffers come from :class:`vcavity.kernels.loop.SlotKernel` (allocated in Python: an ``np.empty``
     in the walk would compile NumPy's allocation for each dtype into every variant).
 

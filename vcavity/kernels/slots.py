@@ -15,8 +15,9 @@ import os
 import threading
 from concurrent.futures import ThreadPoolExecutor
 
-# The slots' threads, kept between calls: a pool made and shut down per call cost ~150 us a
-# call, kept ~85 us (waking a sleeping thread and hearing back; 2 slots, docs/performance.md).
+# The slots' threads, kept between calls: a pool made and shut down per call costs twice as
+# much a call as waking a sleeping thread and hearing back (docs/performance.md, "Figures
+# from the code's comments").
 # Threads are made as slots need them (up to _MAX_SLOT_THREADS) and sleep when idle; a
 # forked child starts a pool of its own (the parent's threads do not exist there).
 _MAX_SLOT_THREADS = 1024

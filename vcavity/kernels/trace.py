@@ -94,7 +94,7 @@ def trace_path(kind, state, ix, iy, iz, setup, params, dist_kind, facet_kind, fa
             return state, ABSORBED, k, 0.0, 0.0, 0.0, np.int64(0)
     # exit through the opening: back to the world frame. Not normalised: reflections and
     # re-emissions keep |d| = 1 to rounding (a few ulp), and the binning tolerates that
-    # (binning.bin_block); the sqrt and division cost ~5 ns a path.
+    # (binning.bin_block), and the sqrt and division would be paid by every path.
     wx, wy = to_world(dx, dy, cos_phi, sin_phi)
     return state, EXITED, k, wx, wy, dz, np.int64(0)
 
@@ -104,7 +104,7 @@ def variants() -> list[tuple[str, str, str]]:
     """Every scene a walk is compiled for, as (distribution, facet, facet variant) names.
 
     One per registered distribution and facet variant (5 x (1 + 3) = 20 today); each is
-    compiled on first use (2-3 s of CPU, docs/performance.md) and then loaded from
+    compiled on first use (docs/performance.md: compile time) and then loaded from
     Numba's disk cache. The list follows the registries, so a new distribution or facet
     model adds its variants here without edits.
 

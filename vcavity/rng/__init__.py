@@ -35,9 +35,9 @@ BLOCK_SIZE = 4096
 
 
 # mix64 and next_uniform are plain jitted functions, not IR-inlined (inline="always"): a
-# kernel calls next_uniform at about ten sites, and Numba's IR inlining re-types each copy,
-# about 1 s of compile time per kernel variant; LLVM inlines the compiled function all the
-# same, so the walk runs as fast (docs/performance.md, "Compile time").
+# kernel calls next_uniform at about ten sites, and Numba's IR inlining re-types each copy
+# (the compile time it cost: docs/performance.md, "Figures from the code's comments"); LLVM
+# inlines the compiled function all the same, so the walk runs as fast.
 @njit(cache=True)
 def mix64(z):
     """SplitMix64 finaliser: a bijective 64-bit hash (uint64 -> uint64)."""

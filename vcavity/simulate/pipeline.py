@@ -34,7 +34,7 @@ from vcavity.simulate import state as run_state
 from vcavity.simulate.state import RunState
 
 #: Default paths per kernel call: large enough to amortise the call, small enough for a
-#: lively progress bar (about a quarter of a second on 2 cores).
+#: lively progress bar (docs/performance.md: the per-call cost).
 DEFAULT_CHUNK_BLOCKS = 512
 #: Target-error runs decide whether to stop after every this many blocks (about 2.6e5
 #: paths): part of the definition of such a run, like BLOCK_SIZE (not tied to chunking).

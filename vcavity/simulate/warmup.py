@@ -2,7 +2,7 @@
 
 A kernel variant is one walk (``v-cavity`` or ``smith``) for one distribution, facet model
 and facet variant (:func:`vcavity.kernels.trace.variants`); Numba compiles each on first
-use (2-3 s of CPU each on an idle machine) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
+use (docs/performance.md: compile time) and caches it on disk (:mod:`vcavity._numba.jit`). ``vcavity warmup``
 compiles named variants ahead of time, for cluster images and Dask workers
 (:func:`compile_variant`); ``vcavity run`` says what it is compiling while it does
 (:class:`CompileNotice`) instead of staying silent.
