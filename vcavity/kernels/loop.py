@@ -26,8 +26,7 @@ import numpy as np
 from vcavity._numba.arrays import borrowed
 from vcavity._numba.jit import njit
 from vcavity.kernels import registry as walks
-from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, SOURCE_TAG, TRUNCATED, block_start,
-                                      exit_buffers)
+from vcavity.kernels.scaffold import ABSORBED, EXITED, SOURCE_TAG, UNWEIGHTED, block_start, exit_buffers
 from vcavity.kernels.slots import run_slots
 from vcavity.rng import BLOCK_SIZE
 from vcavity.sensor.binning import bin_block
@@ -41,32 +40,26 @@ def arguments(call) -> tuple:
     """The loop's arguments after the slot, from a :class:`vcavity.kernels.walks.WalkCall`."""
     return (call.incident, call.direction_key, call.first_block, call.n_blocks, call.n_paths, call.params,
             call.facet_data, call.max_bounces, call.max_order, call.resolution, call.n_slots,
-            call.first_binned_order, call.weight_scale)
+            call.first_binned_order, call.setup, call.weight_scale)
 
 
 def _make_loop(WALK, WEIGHTED, DIST, FACET, VARIANT, SOURCE_TAG):
     """The Python loop of one slot of one walk and scene (module doc), for :func:`build`."""
 
     def walk(slot, incident, direction_key, first_block, n_blocks, n_paths, params, facet_data, max_bounces,
-             max_order, resolution, n_slots, first_binned_order, weight_scale, tallies, stats, exits, exit_ints):
-        # tallies [planes, max_order + 1, resolution**2] (counts; a weighted walk's weights and
-        # squares) and stats [n_stats]: this slot's rows, zeroed; exits, exit_ints: its
-        # scratch rows (exit_buffers; row 2 of exit_ints: the exits' weights)
+             max_order, resolution, n_slots, first_binned_order, setup, weight_scale, counts, sums, stats, exits,
+             exit_ints):
+        # counts [max_order + 1, resolution**2], a weighted walk's sums [2, max_order + 1,
+        # resolution**2] (weights, squares) and stats [n_stats]: this slot's rows, zeroed;
+        # exits, exit_ints: its scratch rows (exit_buffers; row 2 of exit_ints: the weights)
         _ = SOURCE_TAG  # part of the cache key; see vcavity.kernels.scaffold.SOURCE_TAG
         ix = incident[0]
         iy = incident[1]
         iz = incident[2]
         walk_params = borrowed(params)  # no reference counting per path (_numba.arrays)
         walk_data = borrowed(facet_data)
-        setup = walks.prepare_direction(WALK, ix, iy, iz, walk_params, DIST)
-        absorbed = 0
-        truncated = 0
-        degenerate = 0
         deepest = 0
         unbinned = 0
-        absorbed_q = 0
-        truncated_q = 0
-        degenerate_q = 0
         exit_x, exit_y, exit_z, exit_row, exit_cell = exit_buffers(exits, exit_ints)
         exit_q = exit_ints[2]
         for b in range(slot, n_blocks, n_slots):
@@ -89,36 +82,22 @@ def _make_loop(WALK, WEIGHTED, DIST, FACET, VARIANT, SOURCE_TAG):
                         if WEIGHTED:
                             exit_q[n_exits] = q
                         n_exits += 1
-                elif outcome == ABSORBED:
-                    absorbed += 1
-                    if WEIGHTED:
-                        absorbed_q += q
-                elif outcome == TRUNCATED:
-                    truncated += 1
-                    if WEIGHTED:
-                        truncated_q += q
-                elif outcome == DEGENERATE:
-                    degenerate += 1
-                    if WEIGHTED:
-                        degenerate_q += q
-                else:  # UNWEIGHTED: a path of weight 0, not traced
+                elif outcome == UNWEIGHTED:  # a path of weight 0, not traced
                     unbinned += 1
+                else:  # absorbed, truncated, degenerate: columns 0-2 (5-7: their weight), in the codes' order
+                    stats[outcome - ABSORBED] += 1
+                    if WEIGHTED:
+                        stats[5 + outcome - ABSORBED] += q
             bin_block(exit_x, exit_y, exit_z, n_exits, resolution, exit_cell)
             for j in range(n_exits):
-                tallies[0, exit_row[j], exit_cell[j]] += 1
-                if WEIGHTED:
+                counts[exit_row[j], exit_cell[j]] += 1
+            if WEIGHTED:
+                for j in range(n_exits):
                     q = exit_q[j]
-                    tallies[1, exit_row[j], exit_cell[j]] += q
-                    tallies[2, exit_row[j], exit_cell[j]] += q * q
-        stats[0] = absorbed
-        stats[1] = truncated
-        stats[2] = degenerate
+                    sums[0, exit_row[j], exit_cell[j]] += q
+                    sums[1, exit_row[j], exit_cell[j]] += q * q
         stats[3] = deepest
         stats[4] = unbinned
-        if WEIGHTED:
-            stats[5] = absorbed_q
-            stats[6] = truncated_q
-            stats[7] = degenerate_q
 
     return walk
 
@@ -159,14 +138,16 @@ class SlotKernel:
         # so that a call without blocks compiles the walk, as Simulation.compile expects)
         busy = max(1, min(int(call.n_slots), int(call.n_blocks)))
         run_slots(walk_slot, busy, compiled=bool(self.walk.overloads))
-        return tuple(outputs[0][:, plane] for plane in range(self.n_tallies)) + (outputs[1],)
+        counts, sums, stats = outputs[:3]
+        return (counts, *[sums[:, plane] for plane in range(self.n_tallies - 1)], stats)
 
     def outputs(self, n_slots: int, max_order: int, resolution: int) -> tuple:
         """The arrays of one call: three tally planes (those the walk has not: one cell, never
         written), the statistics (zeroed), then the exit buffers."""
-        return (np.zeros((n_slots, self.n_tallies, max_order + 1, resolution * resolution), np.int64),
-                np.zeros((n_slots, self.n_stats), np.int64), np.empty((n_slots, 3, BLOCK_SIZE)),
-                np.empty((n_slots, 3, BLOCK_SIZE), np.int64))
+        cells = (max_order + 1, resolution * resolution)
+        sums = (n_slots, 2, *cells) if self.n_tallies > 1 else (n_slots, 1, 1, 1)  # a weighted walk's
+        return (np.zeros((n_slots, *cells), np.int64), np.zeros(sums, np.int64), np.zeros((n_slots, self.n_stats), np.int64),
+                np.empty((n_slots, 3, BLOCK_SIZE)), np.empty((n_slots, 3, BLOCK_SIZE), np.int64))
 
     @staticmethod
     def slot_rows(outputs: tuple, slot: int) -> tuple:

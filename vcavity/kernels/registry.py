@@ -12,8 +12,8 @@ of :data:`WALK_MODULES` defines:
                            weighted walk's three more (``absorbed_weight``, ...)
 ``WEIGHTED``               whether its paths carry integer weights ``q``
 ``walkable(distribution)`` None where it can walk the distribution, else why not (one line)
-``prepare_direction(kind,  jitted: what every path of a direction shares (Smith: ``Lambda(i)``)
-ix, iy, iz, params,
+``prepare_direction(ix,    what every path of a direction shares (Smith: ``Lambda(i)``), computed
+iy, iz, params,            in Python once a call: the loop's ``setup`` (0 where nothing is shared)
 dist_kind)``
 ``trace_path(kind, state,  jitted, ``inline="always"``: one path, ``-> (state, outcome, bounces,
 ix, iy, iz, setup,         wx, wy, wz, q)`` with an outcome code of :mod:`vcavity.kernels.scaffold`
@@ -29,9 +29,8 @@ names: the dispatch compiles a constant kind's call as the module's own code, ap
 the loop and inlined by LLVM, with no wrapper between them
 (:func:`vcavity._numba.dispatch.dispatcher`, ``direct``).
 
-:data:`trace_path` and :data:`prepare_direction` dispatch on a walk's position in the
-registry (its ``kind``): a compile-time constant in the loop, so each compiled walk holds
-its own tracer and no other. Adding a walk is a module plus one line here; the loop, the
+:data:`trace_path` dispatches on a walk's position in the registry (its ``kind``): a
+compile-time constant in the loop, so each compiled walk holds its own tracer and no other. Adding a walk is a module plus one line here; the loop, the
 run and ``vcavity warmup`` serve it with no other edit.
 """
 
@@ -55,7 +54,5 @@ kind_of = REGISTRY.kind_of
 trace_path = REGISTRY.dispatcher("trace_path", ("state", "ix", "iy", "iz", "setup", "params", "dist_kind",
                                                 "facet_kind", "facet_variant", "facet_data", "max_bounces",
                                                 "weight_scale"), direct=True)
-#: Per walk, what every path of a direction shares.
-prepare_direction = REGISTRY.dispatcher("prepare_direction", ("ix", "iy", "iz", "params", "dist_kind"), direct=True)
 
-__all__ = ["MODULES", "NAMES", "REGISTRY", "WALK_MODULES", "get", "kind_of", "prepare_direction", "trace_path"]
+__all__ = ["MODULES", "NAMES", "REGISTRY", "WALK_MODULES", "get", "kind_of", "trace_path"]

@@ -40,9 +40,9 @@ STATS = ("absorbed", "truncated", "degenerate", "max_bounces", "unbinned")
 WEIGHTED = False
 
 
-@njit(cache=True, inline="always")
-def prepare_direction(kind, ix, iy, iz, params, dist_kind):
-    """``Lambda(i)``: the first step's masking, the same for every path of a direction."""
+def prepare_direction(ix, iy, iz, params, dist_kind):
+    """``Lambda(i)``: the first step's masking, the same for every path of a direction (the
+    distribution's jitted ``smith_lambda``, called from Python once a walk call)."""
     return distributions.smith_lambda(dist_kind, ix, iy, iz, params)
 
 

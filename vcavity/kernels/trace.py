@@ -49,8 +49,7 @@ def walkable(distribution: str) -> None:
     return None
 
 
-@njit(cache=True, inline="always")
-def prepare_direction(kind, ix, iy, iz, params, dist_kind):
+def prepare_direction(ix, iy, iz, params, dist_kind):
     """Nothing to compute once per direction: 0."""
     return 0.0
 

@@ -12,6 +12,7 @@ with its tally planes and statistics columns by name, summed over its thread slo
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,6 +46,9 @@ class WalkCall:
         Exits of lower orders are counted (``unbinned``), not binned.
     weight_scale : float
         Weighted walks: the fixed-point scale ``Q`` of the integer weights (the estimator's).
+    setup : float
+        What every path of the direction shares: the walk's ``prepare_direction`` (a
+        :class:`Walk` fills it in).
     """
 
     incident: np.ndarray
@@ -60,6 +64,7 @@ class WalkCall:
     n_slots: int
     first_binned_order: int = 1
     weight_scale: float = 0.0
+    setup: float = 0.0
 
 
 class Walk:
@@ -78,6 +83,7 @@ class Walk:
         self.tallies = module.TALLIES
         self.stats = module.STATS
         self.kernel = loop.build(walk_registry.kind_of(module.NAME), dist_kind, facet_kind, facet_variant)
+        self._prepare, self._dist_kind = module.prepare_direction, dist_kind
 
     @property
     def compiled(self) -> bool:
@@ -90,6 +96,8 @@ class Walk:
         ``tallies[name]`` is int64 ``(max_order + 1, resolution**2)`` (order slot 0: beyond
         ``max_order``); ``stats[name]`` an int (``max_bounces``: the maximum over the slots).
         """
+        ix, iy, iz = (float(v) for v in call.incident)
+        call = dataclasses.replace(call, setup=float(self._prepare(ix, iy, iz, call.params, self._dist_kind)))
         *planes, per_slot = self.kernel(call)
         tallies = {name: plane.sum(axis=0) for name, plane in zip(self.tallies, planes)}
         stats = {name: (per_slot[:, k].max() if name == "max_bounces" else per_slot[:, k].sum())
