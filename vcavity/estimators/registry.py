@@ -97,9 +97,4 @@ def get(name) -> ModuleType:
     return module
 
 
-def traces(name: str) -> bool:
-    """Whether estimator ``name`` traces paths for some material (False: a model's table)."""
-    return get(name).TALLIES != ()
-
-
-__all__ = ["ESTIMATOR_MODULES", "INTERFACE", "MODULES", "default", "find", "get", "names", "traces"]
+__all__ = ["ESTIMATOR_MODULES", "INTERFACE", "MODULES", "default", "find", "get", "names"]

@@ -26,7 +26,8 @@ import numpy as np
 from vcavity._numba.arrays import borrowed
 from vcavity._numba.jit import njit
 from vcavity.kernels import registry as walks
-from vcavity.kernels.scaffold import ABSORBED, EXITED, SOURCE_TAG, UNWEIGHTED, block_start, exit_buffers
+from vcavity.kernels.scaffold import (ABSORBED, DEGENERATE, EXITED, SOURCE_TAG, TRUNCATED, UNWEIGHTED, block_start,
+                                      exit_buffers)
 from vcavity.kernels.slots import run_slots
 from vcavity.rng import BLOCK_SIZE
 from vcavity.sensor.binning import bin_block
@@ -34,6 +35,10 @@ from vcavity.sensor.binning import bin_block
 #: Statistics columns the loop writes, in order (a weighted walk's first eight).
 COLUMNS = ("absorbed", "truncated", "degenerate", "max_bounces", "unbinned", "absorbed_weight", "truncated_weight",
            "degenerate_weight")
+# the loop counts a lost path in column outcome - ABSORBED (and its weight 5 columns on)
+assert [COLUMNS.index(name) for name in ("absorbed", "truncated", "degenerate")] == [
+    ABSORBED - ABSORBED, TRUNCATED - ABSORBED, DEGENERATE - ABSORBED]
+assert COLUMNS.index("absorbed_weight") == 5
 
 
 def arguments(call) -> tuple:
