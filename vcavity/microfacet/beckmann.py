@@ -37,6 +37,8 @@ EXAMPLES = {
     "anisotropic": {"alpha_x": 0.2, "alpha_y": 0.6},
     "smooth": {"alpha": 0.05},
     "rough": {"alpha": 1.0},
+    "very_smooth": {"alpha_x": 1e-3, "alpha_y": 2e-3},
+    "extreme_anisotropic": {"alpha_x": 0.05, "alpha_y": 0.9},
 }
 
 _TWO_PI = 2.0 * math.pi

@@ -54,6 +54,8 @@ EXAMPLES = {
     "typical": {"sigma": 0.35},  # Oren-Nayar's rough plaster range
     "smooth": {"sigma": 0.1},
     "rough": {"sigma": 1.0},
+    "very_smooth": {"sigma": 1e-3},
+    "very_rough": {"sigma": 2.0},
 }
 
 N_TABLE = 1024

@@ -34,6 +34,7 @@ EXAMPLES = {
     "anisotropic": {"alpha_x": 0.6, "alpha_y": 0.2},
     "smooth": {"alpha": 0.05},
     "rough": {"alpha": 1.0},
+    "extreme_anisotropic": {"alpha_x": 3.0, "alpha_y": 0.01},
 }
 
 _TWO_PI = 2.0 * math.pi

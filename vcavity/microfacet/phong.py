@@ -38,6 +38,7 @@ EXAMPLES = {
     "smooth": {"exponent": 200.0},
     "rough": {"exponent": 2.0},
     "uniform": {"exponent": 0.0},  # D = 1/pi: normals uniform in projected area
+    "very_smooth": {"exponent": 1e5},
 }
 
 _TWO_PI = 2.0 * math.pi

@@ -64,6 +64,7 @@ EXAMPLES = {
     "anisotropic": {"alpha_x": 0.2, "alpha_y": 0.6, "gamma": 4.0},
     "heavy_tail": {"alpha": 0.3, "gamma": 1.8},
     "near_beckmann": {"alpha": 0.8, "gamma": 30.0},
+    "extreme_anisotropic": {"alpha_x": 0.05, "alpha_y": 0.9, "gamma": 2.5},
 }
 
 _TWO_PI = 2.0 * math.pi
