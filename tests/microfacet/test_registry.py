@@ -17,6 +17,7 @@ from vcavity._numba.jit import CACHE_ENABLED
 from vcavity.microfacet import beckmann, gaussian, ggx, phong, student_t, registry
 from vcavity.parameters import ParameterError
 
+
 def test_registered_modules_and_names():
     # the first five in this order (a new distribution is appended: kinds of the others keep)
     assert registry.NAMES[:5] == ("beckmann", "ggx", "phong", "gaussian", "student_t")
