@@ -62,18 +62,10 @@ def sidak(n_cases: int, rate: float = FAMILY_RATE) -> float:
 # ------------------------------------------------------------------ the cases, from the registry
 
 
-def _example_cases(keep=lambda module: True, slow_beyond_first=False):
-    """``pytest.param(name, label)`` for every registered module passing ``keep`` and every
-    example; with ``slow_beyond_first`` all but each module's first (typical) example are
-    marked slow (the default suite keeps one case per module)."""
-    cases = []
-    for module in registry.MODULES:
-        if not keep(module):
-            continue
-        for j, label in enumerate(module.EXAMPLES):
-            marks = [pytest.mark.slow] if slow_beyond_first and j > 0 else []
-            cases.append(pytest.param(module.NAME, label, id=f"{module.NAME}-{label}", marks=marks))
-    return cases
+def _example_cases(keep=lambda module: True):
+    """``pytest.param(name, label)`` for every registered module passing ``keep`` and every example."""
+    return [pytest.param(module.NAME, label, id=f"{module.NAME}-{label}")
+            for module in registry.MODULES if keep(module) for label in module.EXAMPLES]
 
 
 def _is_slow(case) -> bool:
