@@ -39,15 +39,23 @@ def _normal(kind, u1, u2, params):
 def reemission_probability(material: Material) -> float:
     """Probability that light transmitted into a facet's body re-emerges (physics.md sec. 4).
 
-    For the IL facet ``a = emergence_probability(kd, eta)`` (IL eq. 4-8 summed over the
-    internal reflections; 0 at kd = 0, exactly 1 at kd = 1 for every eta); 0 for a facet
-    without a body term (mirror).
+    From the facet's analytic terms (the body term ``K T(c_i) T(c_o)`` integrated over the
+    exits): ``a = 2 pi K int_0^1 T(mu) mu dmu``, by Gauss-Legendre in ``mu = t^2`` (T rises
+    fast near mu = 0 for eta -> 1); 0 for a facet without a body term (mirror, conductor).
+    For the IL facet its closed form ``emergence_probability(kd, eta)`` (IL eq. 4-8 summed
+    over the internal reflections; exactly 1 at kd = 1 for every eta).
     """
     if material.facet == "interfaced_lambertian":
         return float(emergence_probability(material.facet_params["kd"], material.facet_params["eta"]))
-    if facets.body_factor(material.facet, material.facet_params) == 0.0:
+    factor = facets.body_factor(material.facet, material.facet_params)
+    if factor == 0.0:
         return 0.0
-    raise NotImplementedError(f"f1_reference: re-emission probability of facet {material.facet!r}")
+    kind, _, data = facets.prepare(material.facet, material.facet_params)
+    x, w = np.polynomial.legendre.leggauss(200)
+    t, w = 0.5 * (x + 1.0), 0.5 * w
+    mu = t * t  # mu dmu = 2 t^3 dt
+    integral = sum(wk * 2.0 * tk**3 * facets.transmittance(kind, m, data) for m, tk, wk in zip(mu, t, w))
+    return float(2.0 * math.pi * factor * integral)
 
 
 @njit(cache=True)

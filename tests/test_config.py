@@ -5,8 +5,6 @@ import math
 import pytest
 
 from vcavity.config import ConfigError, Material, default_config, load, validate
-from vcavity.facet import registry as facets
-from vcavity.microfacet import registry as distributions
 
 
 def _raw(**material):
@@ -179,39 +177,9 @@ def test_incident_degrees_are_kept_exactly_as_written(theta, phi):
                      "incidence": {"theta_i_deg": [30]}}).incidence[0].theta_i_deg == 30
 
 
-# every registered distribution x facet model, with the material written as a user would
-ALL_MATERIALS = [
-    {"distribution": "beckmann", "alpha": 0.6},
-    {"distribution": "beckmann", "alpha_x": 0.2, "alpha_y": 0.7},
-    {"distribution": "ggx", "alpha": 0.4},
-    {"distribution": "ggx", "alpha_x": 1.0, "alpha_y": 0.01},
-    {"distribution": "phong", "exponent": 20.0},
-    {"distribution": "gaussian", "sigma": 0.35},
-    {"distribution": "student_t", "alpha_x": 0.3, "alpha_y": 0.5, "gamma": 2.5},
-]
-ALL_FACETS = [{"facet": "interfaced_lambertian", "kd": 0.9, "eta": 1.5}, {"facet": "interfaced_lambertian", "kd": 0.0},
-              {"facet": "interfaced_lambertian", "kd": 1.0, "eta": 1.0}, {"facet": "mirror"},
-              {"facet": "conductor", "eta": 0.14, "k": 3.697}, {"facet": "conductor"}]
-
-
-def test_material_cases_cover_every_registered_component():
-    assert {m["distribution"] for m in ALL_MATERIALS} == set(distributions.NAMES)
-    assert {f["facet"] for f in ALL_FACETS} == set(facets.NAMES)
-
-
-@pytest.mark.parametrize("facet", ALL_FACETS, ids=[str(f) for f in ALL_FACETS])
-@pytest.mark.parametrize("dist", ALL_MATERIALS, ids=[str(m) for m in ALL_MATERIALS])
-def test_material_round_trips_through_its_flat_dict(dist, facet):
-    m = validate({"material": {**dist, **facet}}).material
-    flat = m.to_dict()
-    assert Material.from_dict(flat) == m
-    assert Material.from_dict(Material.from_dict(flat).to_dict()) == m
-    # flat: distribution, its canonical values, facet, its canonical values (what tables store)
-    assert list(flat) == ["distribution", *distributions.value_keys(m.distribution), "facet",
-                          *facets.value_keys(m.facet)]
-    assert set(m.distribution_params) == set(distributions.value_keys(m.distribution))
-    assert set(m.facet_params) == set(facets.value_keys(m.facet))
-    assert m.isotropic == (m.distribution_params.get("alpha_x") == m.distribution_params.get("alpha_y"))
+# (Every registered distribution's and facet model's examples round-trip through
+# Material.to_dict / from_dict, with every example of the other kind: the conformance suites,
+# tests/microfacet/test_conformance.py and tests/facet/test_conformance.py.)
 
 
 def test_conductor_defaults_are_gold_and_its_keys_are_its_own():

@@ -8,6 +8,7 @@ tests have no false-positive rate. Example counts are bounded to keep the file f
 """
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -25,7 +26,9 @@ from vcavity.facet.fresnel import (
     r_i,
 )
 from vcavity.io.table import open_table, write_table
-from vcavity.microfacet import beckmann, gaussian, ggx, phong, registry
+from vcavity.facet import registry as facets
+from vcavity.microfacet import registry
+from vcavity.parameters import Roughness
 from vcavity.rng import BLOCK_SIZE
 from vcavity.simulate.pipeline import Simulation
 
@@ -51,11 +54,6 @@ def _assert_unit_upper(m):
     assert abs(math.sqrt(mx * mx + my * my + mz * mz) - 1.0) <= 4e-16
 
 
-def _params(module, *args):
-    """Parameter array from canonical values in key order (alpha_x, alpha_y / exponent / sigma)."""
-    return module.params_from(dict(zip(registry.value_keys(module.NAME), args)))
-
-
 def _assert_sample_ok(module, params, u1, u2):
     t, c, s = module.sample(u1, u2, params)
     assert math.isfinite(t) and t >= 0.0
@@ -66,27 +64,57 @@ def _assert_sample_ok(module, params, u1, u2):
 # ----------------------------------------------------------------------------- sampling
 
 
-@FAST
-@given(u1=uniform, u2=uniform, alpha_x=positive, alpha_y=positive)
-def test_beckmann_and_ggx_normals_are_unit_and_upper(u1, u2, alpha_x, alpha_y):
-    for module in (beckmann, ggx):
-        _assert_sample_ok(module, _params(module, alpha_x, alpha_y), u1, u2)
+def _scalar_range(spec, lo_floor=None, hi_cap=None):
+    """The declared range of a scalar parameter as (lo, hi) floats (open ends moved inside),
+    optionally narrowed to [lo_floor, hi_cap]."""
+    lo = -1.7e308 if spec.lo is None else (math.nextafter(spec.lo, math.inf) if spec.lo_open else spec.lo)
+    hi = 1.7e308 if spec.hi is None else (math.nextafter(spec.hi, -math.inf) if spec.hi_open else spec.hi)
+    if lo_floor is not None and lo < lo_floor < hi:
+        lo = lo_floor
+    if hi_cap is not None and lo < hi_cap < hi:
+        hi = hi_cap
+    return lo, hi
 
 
-@FAST
-@given(u1=uniform, u2=uniform, exponent=st.one_of(st.floats(0.0, 1e300), st.sampled_from([0.0, 2e8, 1e300])))
-def test_phong_normals_are_unit_and_upper(u1, u2, exponent):
-    _assert_sample_ok(phong, _params(phong, exponent), u1, u2)
+def distribution_values(name, roughness=None, lo_floor=None, hi_cap=None):
+    """Canonical values of the registered distribution ``name`` over its declared ranges (from
+    its PARAMETERS: no table per distribution): every roughness ``roughness`` (default: any
+    positive float), every scalar anywhere in its range (optionally narrowed), ends included."""
+    parts = []
+    for spec in registry.get(name).PARAMETERS:
+        if isinstance(spec, Roughness):
+            alpha = roughness if roughness is not None else positive
+            parts.append(st.builds(lambda a, b: {"alpha_x": a, "alpha_y": b}, alpha, alpha))
+        else:
+            lo, hi = _scalar_range(spec, lo_floor, hi_cap)
+            parts.append(st.one_of(st.floats(lo, hi), st.sampled_from([lo, hi])).map(lambda x, k=spec.key: {k: x}))
+    return st.tuples(*parts).map(lambda dicts: {k: v for d in dicts for k, v in d.items()})
 
 
-@settings(deadline=None, max_examples=15)
-@given(sigma=st.one_of(st.floats(1e-300, 1e3), st.sampled_from([1e-300, 1e-160, 1e-100, 1e-4, 2.0, 10.0])),
-       u=st.lists(st.tuples(uniform, uniform), min_size=20, max_size=20))
-def test_gaussian_normals_are_unit_and_upper(sigma, u):
-    params = _params(gaussian, sigma)  # the table build is the slow part: 20 draws per table
-    assert np.all(np.isfinite(params[5:]))  # the inverse-CDF table (C may overflow to inf)
-    for u1, u2 in u:
-        _assert_sample_ok(gaussian, params, u1, u2)
+def _examples_for(name):
+    """Hypothesis examples for ``name``: 60, or 15 where building the parameter array is slow
+    (the Gaussian's inverse-CDF table, ~0.2 s), each tried at 20 pairs of uniforms."""
+    module = registry.get(name)
+    start = time.perf_counter()
+    module.params_from(registry.parse(name, next(iter(module.EXAMPLES.values()))))
+    return 60 if time.perf_counter() - start < 0.02 else 15
+
+
+@pytest.mark.parametrize("name", registry.NAMES)
+def test_sampled_normals_are_unit_and_upper(name):
+    """Every registered distribution over its whole declared parameter range (any positive
+    roughness; scalars from end to end): finite tangents, unit azimuths, unit normals above
+    the horizon, at uniforms including the ends of [0, 1)."""
+    module = registry.get(name)
+
+    @settings(deadline=None, max_examples=_examples_for(name), suppress_health_check=[HealthCheck.too_slow])
+    @given(values=distribution_values(name), u=st.lists(st.tuples(uniform, uniform), min_size=20, max_size=20))
+    def prop(values, u):
+        params = module.params_from(values)
+        for u1, u2 in u:
+            _assert_sample_ok(module, params, u1, u2)
+
+    prop()
 
 
 # ----------------------------------------------------------------------------- Fresnel
@@ -150,30 +178,45 @@ def test_facet_event_conserves_energy_exactly_when_kd_is_one(eta, c):
 
 # ----------------------------------------------------------------------------- whole walk
 
-kd_any = st.sampled_from([0.0, 1e-6, 0.5, 1.0])
 kd_positive = st.sampled_from([1e-6, 0.5, 1.0])
 eta_dielectric = st.sampled_from([1.0 + 1e-9, 1.0001, 1.5, 1000.0, 1e300])
 roughness = st.floats(1e-4, 10.0)
-# Every (distribution, facet mode) pair is its own compiled kernel (~15 s when the cache
+# Every (distribution, facet variant) pair is its own compiled kernel (~15 s when the cache
 # is cold). The default properties use three pairs, each over its whole parameter range
 # (IL with 0 < kd <= 1 and eta from 1 + 1e-9 to 1e300 on Beckmann and GGX, mirror facets
-# on GGX); the slow ones ten, the pairs the rest of the suite also compiles (Beckmann and
-# GGX with every facet mode: mirror, IL with kd = 0, eta = 1 or both > 0; Phong with IL
-# facets; Gaussian with Lambertian ones). scripts/stress.py covers all sixteen.
+# on GGX); the slow ones every pair, from the registries: every registered distribution
+# over its declared parameter ranges (roughness 1e-4 to 10, scalars narrowed to
+# [1e-4, 1e8]) with, for every registered facet model, its first example of each compiled
+# variant. scripts/stress.py covers every pair too.
 material_fast = st.one_of(
     st.builds(lambda d, a, b, kd, eta: {"distribution": d, "alpha_x": a, "alpha_y": b, "kd": kd, "eta": eta},
               st.sampled_from(["beckmann", "ggx"]), roughness, roughness, kd_positive, eta_dielectric),
     st.builds(lambda a, b: {"distribution": "ggx", "alpha_x": a, "alpha_y": b, "facet": "mirror"}, roughness, roughness),
 )
-material_all = st.one_of(
-    st.builds(lambda d, a, b, fac: {"distribution": d, "alpha_x": a, "alpha_y": b, **fac},
-              st.sampled_from(["beckmann", "ggx"]), roughness, roughness,
-              st.one_of(st.just({"facet": "mirror"}),
-                        st.builds(lambda kd, eta: {"kd": kd, "eta": eta}, kd_any, st.one_of(st.just(1.0), eta_dielectric)))),
-    st.builds(lambda e, kd, eta: {"distribution": "phong", "exponent": e, "kd": kd, "eta": eta},
-              st.floats(0.0, 1e8), kd_positive, eta_dielectric),
-    st.builds(lambda s, kd: {"distribution": "gaussian", "sigma": s, "kd": kd, "eta": 1.0}, roughness, kd_positive),
-)
+
+
+def _variant_examples():
+    """``(facet name, example)``: each registered facet model's first example of every variant."""
+    out = []
+    for module in facets.MODULES:
+        seen = set()
+        for raw in module.EXAMPLES.values():
+            variant = facets.variant_name(module.NAME, facets.parse(module.NAME, raw))
+            if variant not in seen:
+                seen.add(variant)
+                out.append((module.NAME, raw))
+    return out
+
+
+ALL_VARIANTS = [pytest.param(d, f, raw, id=f"{d}-{f}-{'-'.join(f'{k}={v:g}' for k, v in raw.items()) or 'default'}")
+                for d in registry.NAMES for f, raw in _variant_examples()]
+
+
+def _material(dist, values, facet, facet_raw):
+    """A [material] table: the distribution's canonical values and the facet's example."""
+    return {"distribution": dist, **values, "facet": facet, **facet_raw}
+
+
 theta = st.one_of(st.floats(0.0, 90.0, exclude_max=True), st.sampled_from([0.0, 89.9, 89.99, 89.99999999999999]))
 
 
@@ -185,6 +228,19 @@ def _run(mat, theta_deg, phi_deg=0.0, paths=BLOCK_SIZE, **simulation):
     table = sim.run()
     books = dict(zip(sim.estimator.STATS, sim.last_state.stats[0]))  # the direction's integer path counts
     return cfg, table, books
+
+
+def _lossless(material) -> bool:
+    """True when no facet event absorbs: ``R + T a >= 1 - 1e-12`` at every cosine of a fine grid,
+    ``a = 2 pi K ∫ T mu dmu`` the share of the light entering the body that re-emerges (the
+    body term ``K T T``; tests/facet/test_conformance.py checks the event against it)."""
+    kind, _, data = facets.prepare(material.facet, material.facet_params)
+    factor = facets.body_factor(material.facet, material.facet_params)
+    mu, w = np.polynomial.legendre.leggauss(200)
+    mu, w = 0.5 * (mu + 1.0), 0.5 * w
+    a = 2.0 * math.pi * factor * sum(wk * facets.transmittance(kind, m, data) * m for m, wk in zip(mu, w))
+    return all(facets.reflectance(kind, c, data) + facets.transmittance(kind, c, data) * a >= 1.0 - 1e-12
+               for c in np.linspace(0.0, 1.0, 65))
 
 
 def _check_table(folder, mat, theta_deg, phi_deg):
@@ -200,7 +256,7 @@ def _check_table(folder, mat, theta_deg, phi_deg):
     total = table.albedo[:, 0] + table.absorbed + table.truncated + table.degenerate
     assert np.all(np.abs(total - 1.0) <= 4e-16)
     assert books["degenerate"] == 0
-    if mat.get("facet") == "mirror" or mat["kd"] == 1.0:  # F + T a = 1 at every event: nothing lost
+    if _lossless(cfg.material):  # R + T a = 1 at every event: nothing lost
         assert books["absorbed"] == 0
 
 
@@ -228,16 +284,28 @@ def test_bounce_cap_bounds_the_work_per_path(mat, theta_deg, cap, max_order, tra
     _check_cap(mat, theta_deg, cap, max_order, track)
 
 
-@pytest.mark.slow
-@settings(deadline=None, max_examples=40, suppress_health_check=[HealthCheck.too_slow,
-                                                                 HealthCheck.function_scoped_fixture])
-@given(mat=material_all, theta_deg=theta, phi_deg=st.floats(0.0, 360.0))
-def test_every_table_all_kernel_variants(tmp_path, mat, theta_deg, phi_deg):
-    _check_table(tmp_path, mat, theta_deg, phi_deg)
+SLOW_VALUES = {name: distribution_values(name, roughness=roughness, lo_floor=1e-4, hi_cap=1e8) for name in registry.NAMES}
 
 
 @pytest.mark.slow
-@settings(deadline=None, max_examples=40, suppress_health_check=[HealthCheck.too_slow])
-@given(mat=material_all, theta_deg=theta, cap=st.integers(1, 40), max_order=st.integers(1, 3), track=st.booleans())
-def test_bounce_cap_all_kernel_variants(mat, theta_deg, cap, max_order, track):
-    _check_cap(mat, theta_deg, cap, max_order, track)
+@pytest.mark.parametrize("dist, facet, facet_raw", ALL_VARIANTS)
+def test_every_table_all_kernel_variants(tmp_path, dist, facet, facet_raw):
+    @settings(deadline=None, max_examples=3, suppress_health_check=[HealthCheck.too_slow,
+                                                                    HealthCheck.function_scoped_fixture])
+    @given(values=SLOW_VALUES[dist], theta_deg=theta, phi_deg=st.floats(0.0, 360.0))
+    def prop(values, theta_deg, phi_deg):
+        _check_table(tmp_path, _material(dist, values, facet, facet_raw), theta_deg, phi_deg)
+
+    prop()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("dist, facet, facet_raw", ALL_VARIANTS)
+def test_bounce_cap_all_kernel_variants(dist, facet, facet_raw):
+    @settings(deadline=None, max_examples=3, suppress_health_check=[HealthCheck.too_slow])
+    @given(values=SLOW_VALUES[dist], theta_deg=theta, cap=st.integers(1, 40), max_order=st.integers(1, 3),
+           track=st.booleans())
+    def prop(values, theta_deg, cap, max_order, track):
+        _check_cap(_material(dist, values, facet, facet_raw), theta_deg, cap, max_order, track)
+
+    prop()

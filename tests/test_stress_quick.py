@@ -209,3 +209,29 @@ def test_grid_needs_no_edit_for_a_new_distribution(monkeypatch):
         width = distributions.lobe_width("clone_t", m.distribution_params)
         assert width == pytest.approx(1e-4, rel=1e-5) if "tiny" in c.name else width == pytest.approx(0.5, rel=1e-5)
     assert len({(c.name, c.theta_deg, c.phi_deg) for c in cases}) == len(cases)
+
+
+def test_grid_needs_no_edit_for_a_new_facet_model(monkeypatch):
+    # register a new facet model (a clone of the conductor under another name) in the
+    # Python-level registry only: every distribution meets it in the grid, with each of its
+    # variants' first example, and the f1 reference's re-emission takes it from its analytic
+    # terms, with no edit to scripts/stress.py or scripts/stress_f1.py (the jitted dispatchers
+    # know only the modules registered at import, so nothing is simulated here)
+    import types
+
+    from vcavity.facet import conductor
+    from vcavity.facet import registry as facet_registry
+
+    clone = types.ModuleType("clone")
+    clone.__dict__.update({k: v for k, v in vars(conductor).items() if not k.startswith("__")})
+    clone.NAME = "clone_metal"
+    monkeypatch.setattr(facet_registry, "MODULES", facet_registry.MODULES + (clone,))
+    monkeypatch.setattr(facet_registry, "NAMES", facet_registry.NAMES + (clone.NAME,))
+    monkeypatch.setattr(facet_registry.REGISTRY, "modules", facet_registry.MODULES + (clone,))
+    cases = stress.build_cases()
+    new = [c for c in cases if c.material.get("facet") == "clone_metal"]
+    assert {c.material["distribution"] for c in new} == set(distributions.NAMES)
+    assert all(c.name.startswith("dist ") and "clone_metal" in c.name for c in new)
+    m = validate({"material": new[0].material}).material
+    assert stress.reemission_probability(m) == 0.0
+    assert len({(c.name, c.theta_deg, c.phi_deg) for c in cases}) == len(cases)

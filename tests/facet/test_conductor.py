@@ -2,9 +2,9 @@
 defaults, prepared data, the reflectance and transmittance the analytic models use, the
 bracketing table and the facet event the kernel runs.
 
-The event's reflection frequency is checked against F by a chi-square test over several
-cosines (fixed seed; rejects at p < 1e-3, a false-positive rate of 1e-3 over the choice
-of seed); everything else is deterministic.
+Deterministic (no false-positive rate). The event's reflection frequency against F is
+checked for every facet model and example in tests/facet/test_conformance.py; here, that
+each event draws exactly one uniform and reflects into the mirror direction.
 """
 
 import sys
@@ -13,7 +13,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from vcavity._numba.jit import njit  # caches where vcavity's own code does
-from scipy.stats import chi2
 
 _ROOT = str(Path(__file__).resolve().parents[2])
 if _ROOT not in sys.path:
@@ -112,16 +111,10 @@ def _events(n, seed, dx, dy, dz, cos_in, nx, nz, data):
     return reflected, one_draw, mirror_direction
 
 
-def test_event_reflects_with_probability_f_drawing_one_uniform():
-    n = 200_000
+def test_event_draws_one_uniform_and_reflects_specularly():
     data = conductor.prepare({"eta": 0.43, "k": 2.455})
-    statistic, dof = 0.0, 0
     for seed, cos_in in enumerate((0.02, 0.1, 0.3, 0.55, 0.8, 0.999)):
         d, nx, nz = incoming(cos_in)
-        reflected, one_draw, mirror_direction = _events(n, 1000 + seed, *d, cos_in, nx, nz, data)
+        reflected, one_draw, mirror_direction = _events(5000, 1000 + seed, *d, cos_in, nx, nz, data)
         assert one_draw and mirror_direction
-        f = fresnel_conductor(cos_in, 0.43, 2.455)
-        statistic += (reflected - n * f) ** 2 / (n * f * (1.0 - f))  # binomial z^2
-        dof += 1
-    p_value = chi2.sf(statistic, dof)
-    assert p_value > 1e-3, (statistic, dof, p_value)
+        assert 0 < reflected < 5000

@@ -40,6 +40,14 @@ PARAMETERS = (
                 "Johnson & Christy 1972)", lo=0.0, default=2.455, example=2.455),
 )
 VARIANTS = ("conductor",)
+#: Named parameter sets as a user writes them in ``[material]``, covering every variant: the
+#: conformance suite (tests/facet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {
+    "gold": {"eta": 0.43, "k": 2.455},  # the default: 548.6 nm, Johnson & Christy 1972
+    "gold_red": {"eta": 0.14, "k": 3.697},  # 659.5 nm, Johnson & Christy 1972
+    "strong_absorber": {"eta": 0.05, "k": 20.0},
+    "total_internal_reflection": {"eta": 0.7, "k": 0.0},  # eta < 1, no absorption: F = 1 near grazing
+}
 
 # facet data layout: [eta, k, F brackets (BRACKET_BINS x 2, flat)]
 _ETA = 0

@@ -57,6 +57,15 @@ DIELECTRIC = 0  # kd = 0: reflect with probability F, else absorbed by the body
 LAMBERTIAN = 1  # eta = 1: F = 0, re-emit with probability kd, cosine-weighted
 FULL = 2  # the full IL facet
 VARIANTS = ("specular dielectric", "lambertian", "interfaced lambertian")
+#: Named parameter sets as a user writes them in ``[material]``, covering every variant: the
+#: conformance suite (tests/facet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {
+    "typical": {"kd": 0.9, "eta": 1.5},  # fig. 7(b) of the IL paper
+    "white": {"kd": 1.0, "eta": 1.5},  # nothing absorbed
+    "high_index": {"kd": 0.5, "eta": 1000.0},
+    "dielectric": {"kd": 0.0, "eta": 1.5},  # the specular dielectric variant
+    "lambertian": {"kd": 0.7, "eta": 1.0},  # the Lambertian variant
+}
 
 #: Bins of the Fresnel bracketing table over cos in [0, 1].
 FRESNEL_BINS = BRACKET_BINS

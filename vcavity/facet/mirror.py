@@ -14,6 +14,9 @@ NAME = "mirror"
 DESCRIPTION = "perfect mirror facets: every hit reflects specularly (F = 1), nothing is absorbed"
 PARAMETERS = ()
 VARIANTS = ("mirror",)
+#: Named parameter sets as a user writes them in ``[material]``, covering every variant: the
+#: conformance suite (tests/facet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {"typical": {}}
 
 
 def variant(values) -> int:

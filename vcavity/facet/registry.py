@@ -6,7 +6,14 @@ one line in :data:`FACET_MODULES`.
 Interface of a facet module
 ---------------------------
 ``NAME``, ``DESCRIPTION`` (one line), ``PARAMETERS`` (:mod:`vcavity.parameters` specs),
-``VARIANTS`` (names of its compiled variants), and
+``VARIANTS`` (names of its compiled variants),
+``EXAMPLES`` (a dict of named parameter sets, each a dict of config keys as a user writes
+them in ``[material]``, e.g. ``{"typical": {"kd": 0.9, "eta": 1.5}, "dielectric": {"kd": 0.0},
+...}``; the first is the typical one, which stands for the module where one set is enough;
+checked at import: identifier-like names, only the module's own keys, each accepted by
+:func:`parse`, and together selecting every variant. tests/facet/test_conformance.py runs
+every generic check of the interface on every registered module and example: no test file
+lists the facet models), and
 
 - ``variant(values) -> int``: which compiled variant the values need (limits that skip
   work, e.g. no Fresnel at ``eta = 1``); a compile-time constant of the kernel;
@@ -31,6 +38,7 @@ from typing import Mapping
 import numpy as np
 
 from vcavity._numba.registry import Registry
+from vcavity.parameters import ParameterError
 
 #: Registered facet models, by module name under ``vcavity.facet``: one line each.
 FACET_MODULES = (
@@ -41,9 +49,38 @@ FACET_MODULES = (
 
 REGISTRY = Registry(
     "vcavity.facet", FACET_MODULES, noun="facet", title="facet model",
-    interface=("NAME", "DESCRIPTION", "PARAMETERS", "VARIANTS", "variant", "prepare", "event",
+    interface=("NAME", "DESCRIPTION", "PARAMETERS", "VARIANTS", "EXAMPLES", "variant", "prepare", "event",
                "reflectance", "transmittance", "has_specular", "body_factor"),
     owner="vcavity.facet.registry")
+
+
+def _check_examples(module) -> None:
+    """``ImportError`` unless ``module.EXAMPLES`` is a dict of named ``[material]`` parameter
+    sets, each with only the module's own keys and accepted by :func:`parse`, that together
+    select every one of the module's ``VARIANTS``."""
+    examples = module.EXAMPLES
+    if not isinstance(examples, dict) or not examples:
+        raise ImportError(f"{module.__name__}.EXAMPLES: a non-empty dict of named parameter sets")
+    keys = set(REGISTRY.config_keys(module.NAME))
+    selected = set()
+    for label, raw in examples.items():
+        where = f"{module.__name__}.EXAMPLES[{label!r}]"
+        if not (isinstance(label, str) and label.isidentifier() and label.islower()):
+            raise ImportError(f"{where}: names are lower-case identifiers")
+        if not isinstance(raw, dict) or set(raw) - keys:
+            raise ImportError(f"{where} = {raw!r}: a dict of the module's keys ({', '.join(sorted(keys)) or 'none'})")
+        try:
+            values = REGISTRY.parse(module.NAME, raw, table=where)
+        except ParameterError as error:
+            raise ImportError(str(error)) from None
+        selected.add(module.VARIANTS[module.variant(values)])
+    missing = [name for name in module.VARIANTS if name not in selected]
+    if missing:
+        raise ImportError(f"{module.__name__}.EXAMPLES select no example of the variant(s) {', '.join(missing)}")
+
+
+for _module in REGISTRY.modules:
+    _check_examples(_module)
 
 MODULES = REGISTRY.modules
 NAMES = REGISTRY.names

@@ -30,6 +30,16 @@ NAME = "beckmann"
 DESCRIPTION = "Gaussian slopes, exp(-tan^2 theta_m / alpha^2) (W eq. 25, H eq. 82)"
 PARAMETERS = (Roughness(summary="Beckmann roughness, sqrt(2) x rms slope", example=0.6),)
 SMITH = "exact"
+#: Named parameter sets as a user writes them in ``[material]``: the conformance suite
+#: (tests/microfacet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {
+    "typical": {"alpha": 0.6},  # fig. 7(b) of the IL paper
+    "anisotropic": {"alpha_x": 0.2, "alpha_y": 0.6},
+    "smooth": {"alpha": 0.05},
+    "rough": {"alpha": 1.0},
+    "very_smooth": {"alpha_x": 1e-3, "alpha_y": 2e-3},
+    "extreme_anisotropic": {"alpha_x": 0.05, "alpha_y": 0.9},
+}
 
 _TWO_PI = 2.0 * math.pi
 _INV_SQRT_PI = 1.0 / math.sqrt(math.pi)

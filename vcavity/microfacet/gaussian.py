@@ -48,6 +48,15 @@ PARAMETERS = (Number("sigma", "standard deviation of theta_m", lo=0.0, lo_open=T
                      example=0.3, reason="beyond 1e6 rad the Gaussian is uniform in theta_m to 1e-12 "
                      "and its sampling table loses accuracy"),)
 SMITH = "infinite"  # D ~ 1/cos theta_m at the horizon: the Smith Lambda diverges
+#: Named parameter sets as a user writes them in ``[material]``: the conformance suite
+#: (tests/microfacet/test_conformance.py) runs every generic check on each (isotropic only).
+EXAMPLES = {
+    "typical": {"sigma": 0.35},  # Oren-Nayar's rough plaster range
+    "smooth": {"sigma": 0.1},
+    "rough": {"sigma": 1.0},
+    "very_smooth": {"sigma": 1e-3},
+    "very_rough": {"sigma": 2.0},
+}
 
 N_TABLE = 1024
 W_MAX = math.sqrt(-2.0 * math.log(2.0**-54))  # > w(u1) for every float64 u1 < 1

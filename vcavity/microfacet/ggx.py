@@ -27,6 +27,15 @@ NAME = "ggx"
 DESCRIPTION = "Trowbridge-Reitz: slopes with a 1/(1 + tan^2/alpha^2)^2 tail (W eq. 33, H eq. 85)"
 PARAMETERS = (Roughness(summary="GGX roughness", example=0.5),)
 SMITH = "exact"
+#: Named parameter sets as a user writes them in ``[material]``: the conformance suite
+#: (tests/microfacet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {
+    "typical": {"alpha": 0.3},
+    "anisotropic": {"alpha_x": 0.6, "alpha_y": 0.2},
+    "smooth": {"alpha": 0.05},
+    "rough": {"alpha": 1.0},
+    "extreme_anisotropic": {"alpha_x": 3.0, "alpha_y": 0.01},
+}
 
 _TWO_PI = 2.0 * math.pi
 _LOG_PI = math.log(math.pi)

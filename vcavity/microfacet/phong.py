@@ -31,6 +31,15 @@ DESCRIPTION = "D proportional to cos^exponent theta_m, isotropic (W eq. 30)"
 PARAMETERS = (Number("exponent", "Phong exponent alpha_p; like Beckmann alpha = sqrt(2/(alpha_p + 2))",
                      lo=0.0, example=20.0),)
 SMITH = "exact"  # the Student-t distribution's (see the module docstring)
+#: Named parameter sets as a user writes them in ``[material]``: the conformance suite
+#: (tests/microfacet/test_conformance.py) runs every generic check on each (isotropic only).
+EXAMPLES = {
+    "typical": {"exponent": 20.0},
+    "smooth": {"exponent": 200.0},
+    "rough": {"exponent": 2.0},
+    "uniform": {"exponent": 0.0},  # D = 1/pi: normals uniform in projected area
+    "very_smooth": {"exponent": 1e5},
+}
 
 _TWO_PI = 2.0 * math.pi
 _ONE_MINUS_ULP = 1.0 - 2.0**-53  # largest float64 below 1

@@ -11,7 +11,14 @@ Interface of a distribution module
 ``NAME`` (str), ``DESCRIPTION`` (one line for reports and ``--help``),
 ``PARAMETERS`` (tuple of :mod:`vcavity.parameters` specs: config keys, ranges, defaults),
 ``SMITH`` (``"exact"``, ``"approximate"``, or ``"infinite"`` when the Smith Lambda
-diverges and only V-cavity masking applies), and
+diverges and only V-cavity masking applies),
+``EXAMPLES`` (a dict of named parameter sets, each a dict of config keys as a user writes
+them in ``[material]``, e.g. ``{"typical": {"alpha": 0.6}, "anisotropic": {"alpha_x": 0.2,
+"alpha_y": 0.6}, ...}``; the first is the typical one, which stands for the module where one
+set is enough; checked at import: at least one, identifier-like names, only the module's own
+keys, each accepted by :func:`parse`. tests/microfacet/test_conformance.py runs every generic
+check of the interface on every registered module and example: no test file lists the
+distributions), and
 
 - ``params_from(values) -> ndarray``: the float64 parameter array from the canonical
   values (plain Python, may precompute tables);
@@ -82,12 +89,34 @@ DISTRIBUTION_MODULES = (
 
 REGISTRY = Registry(
     "vcavity.microfacet", DISTRIBUTION_MODULES, noun="distribution", title="microfacet distribution",
-    interface=("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "params_from", "lobe_width", "sample",
+    interface=("NAME", "DESCRIPTION", "PARAMETERS", "SMITH", "EXAMPLES", "params_from", "lobe_width", "sample",
                "sample_disk", "sample_normal", "D", "pdf", "smith_lambda"),
     owner="vcavity.microfacet.registry")
+
+
+def _check_examples(module) -> None:
+    """``ImportError`` unless ``module.EXAMPLES`` is a non-empty dict of named ``[material]``
+    parameter sets, each with only the module's own keys and accepted by :func:`parse`."""
+    examples = module.EXAMPLES
+    if not isinstance(examples, dict) or not examples:
+        raise ImportError(f"{module.__name__}.EXAMPLES: a non-empty dict of named parameter sets")
+    keys = set(REGISTRY.config_keys(module.NAME))
+    for label, raw in examples.items():
+        where = f"{module.__name__}.EXAMPLES[{label!r}]"
+        if not (isinstance(label, str) and label.isidentifier() and label.islower()):
+            raise ImportError(f"{where}: names are lower-case identifiers")
+        if not isinstance(raw, dict) or set(raw) - keys:
+            raise ImportError(f"{where} = {raw!r}: a dict of the module's keys ({', '.join(sorted(keys))})")
+        try:
+            REGISTRY.parse(module.NAME, raw, table=where)
+        except ParameterError as error:
+            raise ImportError(str(error)) from None
+
+
 for _module in REGISTRY.modules:
     if _module.SMITH not in ("exact", "approximate", "infinite"):
         raise ImportError(f"{_module.__name__}.SMITH = {_module.SMITH!r}: exact, approximate or infinite")
+    _check_examples(_module)
 
 MODULES = REGISTRY.modules
 NAMES = REGISTRY.names

@@ -57,6 +57,15 @@ PARAMETERS = (
     Number("gamma", "tail shape: 2 is GGX, infinity is Beckmann", lo=1.5, lo_open=True, example=2.0),
 )
 SMITH = "exact"
+#: Named parameter sets as a user writes them in ``[material]``: the conformance suite
+#: (tests/microfacet/test_conformance.py) runs every generic check on each.
+EXAMPLES = {
+    "typical": {"alpha": 0.4, "gamma": 3.0},
+    "anisotropic": {"alpha_x": 0.2, "alpha_y": 0.6, "gamma": 4.0},
+    "heavy_tail": {"alpha": 0.3, "gamma": 1.8},
+    "near_beckmann": {"alpha": 0.8, "gamma": 30.0},
+    "extreme_anisotropic": {"alpha_x": 0.05, "alpha_y": 0.9, "gamma": 2.5},
+}
 
 _TWO_PI = 2.0 * math.pi
 _LOG_PI = math.log(math.pi)
