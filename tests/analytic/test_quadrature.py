@@ -1,6 +1,6 @@
 """Tests of the sub-cell quadrature (vcavity.analytic.quadrature; physics.md sections 6, 9).
 
-Exact values come from the sensor's projected solid angles, which tests/test_sensor.py
+Exact values come from the sensor's projected solid angles, which tests/sensor/test_grid.py
 checks against an independent closed form and a brute-force midpoint rule.
 """
 

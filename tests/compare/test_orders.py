@@ -6,7 +6,7 @@ import h5py
 import numpy as np
 import pytest
 
-from tests.test_compare import write_run
+from tests.compare.test_single_bounce import write_run
 from vcavity.cli import main
 
 MIRROR = {"distribution": "beckmann", "alpha": 0.5, "facet": "mirror"}

@@ -1,7 +1,7 @@
 """Tables of closed-form BRDFs for the export tests, written without simulating.
 
 Each order holds ``f`` at the cell centres, stored as counts at 1e15 paths through
-``write_table`` (as tests/test_brdf.py does), so ``table.brdf`` is ``f(centre)`` to ~1e-15
+``write_table`` (as tests/brdf/test_table_brdf.py does), so ``table.brdf`` is ``f(centre)`` to ~1e-15
 relative and nothing is compiled. Order ``k >= 1`` holds ``f / (k + 1)`` (integer division
 of the counts), so orders are told apart.
 """

@@ -123,7 +123,7 @@ def _square_coordinate_to_bin(t, resolution):
 
 
 # Abramowitz & Stegun 4.4.49: atan(t) = t P(t^2) on [-1, 1] with |error| <= 2e-8 rad
-# (1.36e-8 measured on a 2e7-point grid, tests/test_sensor.py).
+# (1.36e-8 measured on a 2e7-point grid, tests/sensor/test_grid.py).
 _ATAN_COEFFS = (1.0, -0.3333314528, 0.1999355085, -0.1420889944, 0.1065626393,
                 -0.0752896400, 0.0429096138, -0.0161657367, 0.0028662257)
 _ATAN_MAX_ERROR = 2e-8

@@ -1,4 +1,4 @@
-"""Regenerate sweep_before_commits.h5, the fixture of tests/test_sweep_commit.py's test of a
+"""Regenerate sweep_before_commits.h5, the fixture of tests/sweep/test_commit.py's test of a
 sweep file written before points were committed in place (gzip-chunked cell datasets, no
 ``checksum`` dataset). It must be written by vcavity at commit e091c4d (the last commit
 that rewrote the whole file after each point), not by the current code:
@@ -7,7 +7,7 @@ that rewrote the whole file after each point), not by the current code:
     cd tests/io/data && NUMBA_CACHE_DIR=/tmp/nc-e091c4d PYTHONPATH=/tmp/vcavity-e091c4d \\
         python make_sweep_before_commits.py
 
-The sweep is tests/test_sweep_commit.py's (BASE + GRID there, copied below), stopped after
+The sweep is tests/sweep/test_commit.py's (BASE + GRID there, copied below), stopped after
 its first point as Ctrl-C would: done = [[1, 0], [0, 0]].
 """
 

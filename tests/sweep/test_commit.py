@@ -23,7 +23,7 @@ import xarray as xr
 
 from tests.export.synthetic_sweeps import synthetic_sweep
 from tests.io.checksum_reference import checksums
-from tests.test_sweep import BASE, _same_file, _write
+from tests.sweep.test_run import BASE, _same_file, _write
 from vcavity.cli import main
 from vcavity.io import sweep_points
 from vcavity.io.sweep_table import open_sweep
@@ -183,7 +183,7 @@ def test_a_file_written_before_in_place_commits_is_read_and_resumed(full, tmp_pa
     trusted; --resume writes it whole once in the new layout, then goes on in place."""
     folder, spec, reference = full
     out = tmp_path / "old.h5"
-    out.write_bytes((Path(__file__).parent / "io" / "data" / "sweep_before_commits.h5").read_bytes())
+    out.write_bytes((Path(__file__).parents[1] / "io" / "data" / "sweep_before_commits.h5").read_bytes())
     with h5py.File(out, "r") as h5:
         assert "checksum" not in h5 and h5["brdf"].compression == "gzip"
     read = open_sweep(out)
@@ -201,7 +201,7 @@ def test_a_file_written_before_in_place_commits_is_read_and_resumed(full, tmp_pa
 def test_resume_never_writes_a_file_that_changed_after_it_was_read(full, tmp_path):
     folder, spec, reference = full
     out = tmp_path / "swapped.h5"
-    out.write_bytes((Path(__file__).parent / "io" / "data" / "sweep_before_commits.h5").read_bytes())
+    out.write_bytes((Path(__file__).parents[1] / "io" / "data" / "sweep_before_commits.h5").read_bytes())
     sweep = sweep_mod.load(spec)
     _, data, _ = sweep_run.plan_output(sweep, str(out), str(spec), resume=True)
     other = synthetic_sweep(tmp_path / "other.h5", [("alpha", [0.2, 0.5]), ("theta_i_deg", [0.0, 40.0])],

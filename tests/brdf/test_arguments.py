@@ -2,7 +2,7 @@
 
 Out-of-range uniforms and non-finite directions raise a ValueError naming the argument;
 denormal or huge non-unit vectors give the value at their direction. On the synthetic
-``lobe`` table of tests/test_brdf.py (closed form, no simulation). Deterministic.
+``lobe`` table of tests/brdf/test_table_brdf.py (closed form, no simulation). Deterministic.
 """
 
 import re
@@ -10,7 +10,7 @@ import re
 import numpy as np
 import pytest
 
-from tests.test_brdf import direction, lobe, synthetic
+from tests.brdf.test_table_brdf import direction, lobe, synthetic
 
 
 @pytest.fixture(scope="module")

@@ -21,7 +21,7 @@ from vcavity.cli import main
 from vcavity.simulate.pipeline import simulate
 from vcavity.sweep import spec as sweep_mod
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 BASE = ('[material]\ndistribution = "beckmann"\nalpha = 0.4\nfacet = "conductor"\n'
         "[incidence]\npaths = 20_000\n[simulation]\nseed = 17\nsensor_resolution = 9\n")
 PAIRED = "[sweep]\ntheta_i_deg = [0, 60]\n[sweep.paired.wavelength]\nlabel_nm = [659.5, 450.9]\n" \

@@ -22,7 +22,7 @@ import pytest
 from vcavity._numba import jit
 from vcavity._version import __version__
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 OTHER = "import numba\n\n@numba.njit(cache=True)\ndef twice(x):\n    return 2.0 * x\n"
 CHILD = """\
 import sys

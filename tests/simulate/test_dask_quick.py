@@ -4,7 +4,7 @@ A LocalCluster of one worker process and a few work units of a small run, agains
 same run traced locally with another chunking; a bug in how a work unit's blocks reach
 the worker (an offset of its first block, a unit lost or repeated) changes the counts.
 The thorough cases (two workers, a target-error run, a killed worker) are in
-tests/test_distributed.py, marked slow. Deterministic: equality, nothing statistical.
+tests/simulate/test_distributed.py, marked slow. Deterministic: equality, nothing statistical.
 """
 
 import numpy as np

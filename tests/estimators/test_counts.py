@@ -166,7 +166,7 @@ def test_folded_exact_f1_holds_the_model_merged_over_mirror_pairs(phi_deg):
 def test_albedo_is_the_sum_of_brdf_times_projected_solid_angle(estimator, phi_deg):
     """For every order of every estimator, folded or not: albedo = sum_c brdf_c Omega_c,
     what the table's albedo dataset promises (docs/hdf5-format.md) and open_table checks.
-    (The exact estimator's tables: tests/simulate/test_exact.py.)"""
+    (The exact estimator's tables: tests/estimators/test_exact.py.)"""
     from vcavity.estimators.paper import weighted as estimate_weighted
 
     sensor = EqualAreaSensor(8)

@@ -12,7 +12,7 @@ of passing is nil.
 import h5py
 import pytest
 
-from tests.test_compare import write_run
+from tests.compare.test_single_bounce import write_run
 from vcavity.cli import main
 from vcavity.compare import compare_table
 from vcavity.config import ConfigError, Material, validate

@@ -32,7 +32,7 @@ from vcavity.io.table import write_table
 from tests.io.tables import analog_table
 from vcavity.sensor.grid import EqualAreaSensor
 
-REPO = Path(__file__).resolve().parents[1]
+REPO = Path(__file__).resolve().parents[2]
 V1_TABLE = REPO / "tests" / "io" / "data" / "table_v1.h5"
 NOTE = "vcavity: note: no writable Numba cache directory"
 TINY_CONFIG = """\

@@ -26,7 +26,7 @@ from vcavity.sensor.plane import SIDE_OFFSET, plane_directions, plane_segments
 from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.sensor.binning import cell_index
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def _config(folder, name, alpha, theta, max_order, track_all, resolution, paths):

@@ -343,7 +343,7 @@ def test_table_api_imports_no_numba(tables):
             "wo, w, p = t.sample(wi, [0.2, 0.9], [0.5, 0.1])\n"
             "print(t.eval(wi, wo).shape, t.pdf(wi, wo).shape, float(t.albedo_at(wi)) > 0)\n"
             "print('numba' in sys.modules or bool(found))\n")
-    root = Path(__file__).resolve().parents[1]
+    root = Path(__file__).resolve().parents[2]
     env = dict(os.environ, PYTHONPATH=os.pathsep.join([str(root), os.environ.get("PYTHONPATH", "")]))
     result = subprocess.run([sys.executable, "-c", code, str(tables["lobe"].path)], env=env,
                             capture_output=True, text=True, timeout=120)
@@ -366,7 +366,7 @@ def test_interpolation_error_against_the_analytic_f1(tmp_path, name, tabulated_b
     (cell averages of the V-cavity model, N = 57, theta_i = 25, 30, 35 deg) against the
     model itself, energy-weighted relative L1 by Gauss-Legendre on the cells of a 2N
     sensor, at a tabulated theta_i and halfway between two (rotated in phi_i)."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "scripts"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "scripts"))
     import table_api_error as study
     from vcavity.analytic.quadrature import subcell_quadrature
     from vcavity.config import Material
