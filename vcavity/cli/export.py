@@ -159,8 +159,6 @@ def _open_source(path, shown: str, module, is_sweep: bool):
     if is_sweep:
         raise ExportRefused(f"table {shown!r}: is a sweep file; --format {module.NAME} exports a table "
                             "of one run (vcavity run)")
-    from vcavity.io.table import TableFormatError, open_table
-
     try:
         return open_table(path)
     except (TableFormatError, OSError) as exc:

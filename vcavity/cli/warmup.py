@@ -9,7 +9,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from vcavity.cli.common import EXIT_BAD_INPUT, EXIT_OK, Interrupted, error
+from vcavity.cli.common import EXIT_OK, Interrupted, error
 
 NAME = "warmup"
 

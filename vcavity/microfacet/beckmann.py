@@ -22,7 +22,6 @@ from vcavity.microfacet.common import (
     visible_normal,
 )
 from vcavity.parameters import Roughness
-from vcavity.rng import next_uniform
 from vcavity.rng.ziggurat import standard_normal
 from vcavity._numba.jit import njit
 

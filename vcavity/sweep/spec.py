@@ -43,7 +43,7 @@ from vcavity import config as config_mod
 from vcavity.config import ConfigError, RunConfig
 from vcavity.estimators import registry as estimators
 from vcavity.facet import registry as facets
-from vcavity.io.sweep_table import INCIDENCE_AXES, GridAxis, SweepData
+from vcavity.io.sweep_table import GridAxis, SweepData
 from vcavity.microfacet import registry as distributions
 from vcavity.rng import BLOCK_SIZE
 from vcavity.sensor.grid import EqualAreaSensor
