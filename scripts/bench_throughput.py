@@ -12,7 +12,8 @@ Three measurements, printed as tables (docs/performance.md records them):
 2. **Every specialisation** of the current kernel, 1 and 2 threads: the general walk, the
    exact-f1 estimator's binning skip, f1 only, the facet variants, an anisotropic roughness.
 3. **The plain-NumPy vectorised walk** (tests/reference/numpy_walk.py) single-threaded, and
-   the kernel's single-thread ratio to it.
+   the kernel's single-thread ratio to it: fig. 7b, then every case of 2. against the NumPy
+   walk of the same material (which traces every order).
 
 The machine may be shared: the 1-minute load average is printed before each table, and
 every rate is given twice, per wall-clock second and per CPU second of the process (all
@@ -245,14 +246,16 @@ def smith_table(paths: int, repeat: int, theta: float) -> list[dict]:
     return rows
 
 
-def numpy_rate(paths: int, theta: float) -> tuple[float, float]:
-    """Paths per wall-clock and per CPU second of the plain-NumPy walk (fig. 7b), single-threaded."""
+def numpy_rate(paths: int, theta: float, material: dict = FIG7B) -> tuple[float, float]:
+    """Paths per wall-clock and per CPU second of the plain-NumPy walk, single-threaded, every
+    order traced (max_order 3), for ``material`` (fig. 7b by default)."""
     sys.path.insert(0, str(ROOT))
     from tests.reference.numpy_walk import walk
 
-    walk(FIG7B, math.radians(theta), 0.0, 1000, 57, 3)  # warm the Fresnel/quadrature caches
+    material = {k: v for k, v in material.items() if v is not None}
+    walk(material, math.radians(theta), 0.0, 1000, 57, 3)  # warm the Fresnel/quadrature caches
     t0, c0 = time.perf_counter(), time.process_time()
-    walk(FIG7B, math.radians(theta), 0.0, paths, 57, 3)
+    walk(material, math.radians(theta), 0.0, paths, 57, 3)
     return paths / (time.perf_counter() - t0), paths / (time.process_time() - c0)
 
 
@@ -357,6 +360,19 @@ def main(argv=None) -> int:
           f"({general['cpu1'] / np_cpu:.1f}x per CPU second)")
     out["numpy"] = {"rate": np_rate, "cpu_rate": np_cpu, "kernel_1_thread": general[1],
                     "ratio": general[1] / np_rate, "cpu_ratio": general["cpu1"] / np_cpu}
+    # each case against the NumPy walk of its own material (which traces every order: the
+    # f1-only and exact-f1 cases are compared with the walk that does the whole job)
+    print(f"  per case, the NumPy walk of the same material ({numpy_paths:,} paths each), 1 thread, per CPU s:")
+    numpy_of = {json.dumps(FIG7B, sort_keys=True): np_cpu}
+    out["numpy"]["per_case"] = []
+    for (label, material, _), row in zip(CASES, rows):
+        key = json.dumps(material, sort_keys=True)
+        if key not in numpy_of:
+            numpy_of[key] = numpy_rate(numpy_paths, args.theta_deg, material)[1]
+        print(f"  {label:44s} NumPy {numpy_of[key] / 1e6:6.3f} M/s, kernel {row['cpu1'] / 1e6:6.2f} M/s: "
+              f"{row['cpu1'] / numpy_of[key]:5.1f}x", flush=True)
+        out["numpy"]["per_case"].append({"label": label, "numpy_cpu_rate": numpy_of[key],
+                                         "ratio_cpu": row["cpu1"] / numpy_of[key]})
 
     seconds = 1e9 / general[2]
     print(f"\n1e9 paths of fig. 7b at 2 threads: {seconds:.1f} s projected from the median rate")
