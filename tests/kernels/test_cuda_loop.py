@@ -211,6 +211,12 @@ def gpu():
         pytest.skip("no CUDA device")
 
 
+#: Paths of the GPU-against-CPU test and of the launch test (module constants, so that a
+#: smoke run under the simulator can make them small).
+GPU_PATHS = 100_000_000
+GPU_LAUNCH_PATHS = 10_000_000
+
+
 def _homogeneity_p(a, b, min_count=20):
     """p-value of a two-sample chi-square (homogeneity) over categories: those with at
     least ``min_count`` in the two samples, and the rest pooled."""
@@ -235,7 +241,7 @@ def test_gpu_tables_agree_with_the_cpu_walks(gpu, spec):
     from vcavity.analytic.statistics import sidak_threshold
     from vcavity.kernels import cuda_loop
 
-    spec = {**spec, "n_paths": 100_000_000}
+    spec = {**spec, "n_paths": GPU_PATHS}
     walk_kind, dist_kind, facet_kind, variant, _, _ = cuda_cases.scene(spec)
     gpu_counts, gpu_stats = cuda_loop.build_cuda(walk_kind, dist_kind, facet_kind, variant)(
         cuda_cases.walk_call(spec, key_seed=2))
@@ -250,17 +256,19 @@ def test_gpu_tables_agree_with_the_cpu_walks(gpu, spec):
 @pytest.mark.gpu
 @pytest.mark.parametrize("spec", cuda_cases.DEFAULT_CASES, ids=lambda spec: spec["label"])
 def test_gpu_tables_are_the_same_for_any_launch(gpu, spec):
-    """1e7 paths: bit for bit across threads per block, a grid-stride launch and a split call."""
+    """1e7 paths: bit for bit across threads per block, a grid-stride launch (7 blocks of 64
+    threads) and the blocks split over two calls."""
     from vcavity.kernels import cuda_loop
 
-    spec = {**spec, "n_paths": 10_000_000}
+    spec = {**spec, "n_paths": GPU_LAUNCH_PATHS}
     kernel = cuda_loop.build_cuda(*cuda_cases.scene(spec)[:4])
     call = cuda_cases.walk_call(spec)
+    half = call.n_blocks // 2
     first = kernel.launch(call, threads_per_block=256)
     for other in (kernel.launch(call, threads_per_block=32), kernel.launch(call, threads_per_block=64,
                                                                            blocks_per_grid=7),
-                  cuda_cases.merged([kernel.launch(cuda_cases.walk_call(spec, 0, 1000)),
-                                     kernel.launch(cuda_cases.walk_call(spec, 1000))])):
+                  cuda_cases.merged([kernel.launch(cuda_cases.walk_call(spec, 0, half)),
+                                     kernel.launch(cuda_cases.walk_call(spec, half))])):
         np.testing.assert_array_equal(other[0].reshape(first[0].shape), first[0])
         np.testing.assert_array_equal(other[1].reshape(first[1].shape), first[1])
 
