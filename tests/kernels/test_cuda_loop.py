@@ -62,31 +62,30 @@ def _assert_identical(spec, result):
         np.testing.assert_array_equal(stats, cpu_stats, err_msg=f"{spec['label']}, {launch}: statistics")
 
 
-@pytest.fixture(scope="module")
-def simulated_default():
-    return _simulate(cuda_cases.DEFAULT_CASES, timeout=900)
-
-
 @needs_numba_cuda
-@pytest.mark.parametrize("spec", cuda_cases.DEFAULT_CASES, ids=lambda spec: spec["label"])
-def test_simulated_loop_gives_the_cpu_walks_tables(simulated_default, spec):
-    result = simulated_default[spec["label"]]
-    _assert_identical(spec, result)
-    counts, stats = (np.array(a) for a in result["cpu"])
-    assert result["n_blocks"] == 3 and (counts.sum(axis=1) > 0).sum() >= 2
-    # what each case is there for (cuda_cases.DEFAULT_CASES): absorption, truncation, an
-    # unbinned first order and the orders beyond max_order in slot 0
-    if spec["facet"] == "interfaced_lambertian":
-        assert stats[0] > 0
-    if spec["walk"] == "smith":
-        assert stats[1] > 0 and stats[3] == spec["max_bounces"]
-    if spec["first_binned_order"] == 2:
-        assert stats[4] > 0 and counts[0].sum() > 0 and counts[1].sum() == 0
+def test_simulated_loop_gives_the_cpu_walks_tables():
+    """The default cases in one child process (one test, not one per case: under xdist each
+    worker would start its own child)."""
+    results = _simulate(cuda_cases.DEFAULT_CASES, timeout=900)
+    for spec in cuda_cases.DEFAULT_CASES:
+        result = results[spec["label"]]
+        _assert_identical(spec, result)
+        counts, stats = (np.array(a) for a in result["cpu"])
+        assert result["n_blocks"] == 3 and (counts.sum(axis=1) > 0).sum() >= 2, spec["label"]
+        # what each case is there for (cuda_cases.DEFAULT_CASES): absorption, truncation, an
+        # unbinned first order and the orders beyond max_order in slot 0
+        if spec["facet"] == "interfaced_lambertian":
+            assert stats[0] > 0, spec["label"]
+        if spec["walk"] == "smith":
+            assert stats[1] > 0 and stats[3] == spec["max_bounces"], spec["label"]
+        if spec["first_binned_order"] == 2:
+            assert stats[4] > 0 and counts[0].sum() > 0 and counts[1].sum() == 0, spec["label"]
 
 
 @needs_numba_cuda
 @pytest.mark.slow
 def test_simulated_loop_gives_the_cpu_walks_tables_for_every_variant():
+    """Every walk x distribution x facet variant (the registries' first examples), one child."""
     cases = cuda_cases.all_cases()
     results = _simulate(cases, timeout=7200)
     assert sorted(results) == sorted(spec["label"] for spec in cases)
