@@ -38,13 +38,16 @@ def source_files() -> list[Path]:
 
     The kernels' own folder, the facet models and distributions they inline, the Numba
     plumbing (``njit``, the registries' dispatch), the exit binning and the random streams.
+    Not the CUDA loop (``kernels/cuda_loop.py``): no CPU kernel inlines it, so editing it
+    must not recompile them, and its own kernel is cached under its own file.
 
     Returns
     -------
     list of pathlib.Path
     """
     root = Path(__file__).resolve().parent.parent
-    files = [path for sub in ("kernels", "facet", "microfacet", "_numba", "rng") for path in sorted((root / sub).glob("*.py"))]
+    files = [path for sub in ("kernels", "facet", "microfacet", "_numba", "rng")
+             for path in sorted((root / sub).glob("*.py")) if path != root / "kernels" / "cuda_loop.py"]
     return files + [root / "sensor/binning.py"]
 
 

@@ -9,6 +9,8 @@ Cell ``c = iy * N + ix`` covers ``u`` in ``[-1 + 2 ix/N, -1 + 2 (ix+1)/N]`` and 
 ``[-1 + 2 iy/N, -1 + 2 (iy+1)/N]``.
 """
 
+import math
+
 import numpy as np
 
 from vcavity._numba.jit import njit
@@ -68,7 +70,7 @@ def _square_radius(x, y, z):
     radius_sq = (x * x + y * y) / (1.0 + z)
     if radius_sq > 1.0:
         radius_sq = 1.0
-    return np.sqrt(radius_sq)
+    return math.sqrt(radius_sq)  # math, not np: numba-cuda has no np.sqrt ufunc on scalars
 
 
 @njit(cache=True)
@@ -119,7 +121,7 @@ def _square_coordinate_to_bin(t, resolution):
         return 0
     if scaled >= resolution:
         return resolution - 1
-    return int(np.floor(scaled))
+    return int(math.floor(scaled))  # scaled in [0, N): the same int; numba-cuda has no np.floor
 
 
 # Abramowitz & Stegun 4.4.49: atan(t) = t P(t^2) on [-1, 1] with |error| <= 2e-8 rad
@@ -189,7 +191,7 @@ def direction_to_cell(x, y, z, resolution):
         return np.int64(half) * resolution + half
     # error of `angular` in bin units: N/2 * (4/pi) * 2e-8 * |radius| < N * 1.3e-8
     scaled = (angular + 1.0) * 0.5 * resolution
-    frac = scaled - np.floor(scaled)
+    frac = scaled - math.floor(scaled)  # math.floor: an int, exact for |scaled| <= N (NaN stays NaN)
     margin = resolution * 1e-7
     if frac < margin or frac > 1.0 - margin:
         u, v = hemisphere_to_square(x, y, z)
