@@ -137,20 +137,6 @@ def _moderate(dist):
 DISTS = distributions.NAMES  # every registered distribution (build_cases reads the registry itself)
 
 
-def _variant_examples():
-    """``(facet, label, example)`` for every registered facet model and compiled variant: the
-    model's first example (its ``EXAMPLES``) that selects the variant."""
-    out = []
-    for module in facets.MODULES:
-        seen = set()
-        for label, example in module.EXAMPLES.items():
-            variant = facets.variant_name(module.NAME, facets.parse(module.NAME, example))
-            if variant not in seen:
-                seen.add(variant)
-                out.append((module.NAME, label, example))
-    return out
-
-
 def build_cases(quick: bool = False) -> list[Case]:
     """The covering grid (quick: 12 of its nastiest cases with 40x fewer paths)."""
     c = []
@@ -169,7 +155,7 @@ def build_cases(quick: bool = False) -> list[Case]:
         for p in (0.0, 90.0):
             c.append(Case(f"aniso {r}:1 phi={p:g}", _mat(alpha_x=0.5, alpha_y=0.5 / r), 45.0, p))
     for d in distributions.NAMES:
-        for f, label, example in _variant_examples():
+        for f, label, example in facets.variant_examples():
             c.append(Case(f"dist {d} {_SHORT.get(f, f)} {label}", _mat(distribution=d, facet=f, **example,
                                                                        **_moderate(d)), 45.0))
     # 2. nasty combinations

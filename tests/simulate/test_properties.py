@@ -195,21 +195,8 @@ material_fast = st.one_of(
 )
 
 
-def _variant_examples():
-    """``(facet name, example)``: each registered facet model's first example of every variant."""
-    out = []
-    for module in facets.MODULES:
-        seen = set()
-        for raw in module.EXAMPLES.values():
-            variant = facets.variant_name(module.NAME, facets.parse(module.NAME, raw))
-            if variant not in seen:
-                seen.add(variant)
-                out.append((module.NAME, raw))
-    return out
-
-
 ALL_VARIANTS = [pytest.param(d, f, raw, id=f"{d}-{f}-{'-'.join(f'{k}={v:g}' for k, v in raw.items()) or 'default'}")
-                for d in registry.NAMES for f, raw in _variant_examples()]
+                for d in registry.NAMES for f, _, raw in facets.variant_examples()]
 
 
 def _material(dist, values, facet, facet_raw):

@@ -85,21 +85,9 @@ def test_f1_matches_vcavity_model_matrix(name, material, theta_deg, phi_deg):
     assert albedo.passed(level), (name, albedo)
 
 
-def _facet_variants():
-    """``(label, [material] keys)``: each registered facet model's first example of every variant."""
-    out = []
-    for module in facets.MODULES:
-        seen = set()
-        for label, example in module.EXAMPLES.items():
-            variant = facets.variant_name(module.NAME, facets.parse(module.NAME, example))
-            if variant not in seen:
-                seen.add(variant)
-                out.append((f"{module.NAME}-{label}", {"facet": module.NAME, **example}))
-    return out
-
-
 def _registry_matrix():
-    variants = _facet_variants()
+    variants = [(f"{name}-{label}", {"facet": name, **example})
+                for name, label, example in facets.variant_examples()]
     thetas = [0.0, 30.0, 60.0, 80.0, 45.0]
     cases = []
     for d, module in enumerate(distributions.MODULES):

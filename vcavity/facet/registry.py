@@ -106,6 +106,22 @@ def variant_name(name: str, values: Mapping[str, float]) -> str:
     return module.VARIANTS[module.variant(values)]
 
 
+def variant_examples() -> list[tuple[str, str, dict]]:
+    """``(facet name, example label, example)``: every registered model's first example of
+    each of its compiled variants (the examples select them all: checked at import), in
+    registry and example order. The one list that stands for "every facet variant" in the
+    stress grid and the tests."""
+    out = []
+    for module in MODULES:
+        seen = set()
+        for label, example in module.EXAMPLES.items():
+            variant = module.variant(parse(module.NAME, example))
+            if variant not in seen:
+                seen.add(variant)
+                out.append((module.NAME, label, example))
+    return out
+
+
 def has_specular(name: str, values: Mapping[str, float]) -> bool:
     """True when the facet reflects specularly at all."""
     return bool(get(name).has_specular(values))
