@@ -65,6 +65,10 @@ class Number:
         A typical value, shown in ``--help``.
     reason : str
         Why a bound is there (appended to the out-of-range message), or empty.
+    default_unless : str
+        A key whose presence voids the default: when it is given and this key is not, the
+        key is required (a conductor's ``k`` with ``eta``: gold's ``k`` with another metal's
+        ``eta`` is no metal at all). Empty: the default always applies.
     """
 
     key: str
@@ -77,6 +81,7 @@ class Number:
     units: str = "1"
     example: float = 1.0
     reason: str = ""  # why the range is bounded, appended to the out-of-range message
+    default_unless: str = ""
 
     @property
     def keys(self) -> tuple[str, ...]:
@@ -133,9 +138,20 @@ class Number:
         """A scalar parameter never breaks rotational symmetry."""
         return True
 
+    def check_together(self, raw: Mapping[str, Any], table: str, owner: str) -> None:
+        """One-line :class:`ParameterError` when ``default_unless`` is given and this key is not
+        (run after every key's own value is checked, so a bad value is named first)."""
+        other = self.default_unless
+        if other and self.key not in raw and other in raw:
+            raise ParameterError(f"{table}.{self.key} is missing: {owner} needs {self.key} ({self.accepted()}) "
+                                 f"with {table}.{other} = {raw[other]!r}; the default {self.key} = "
+                                 f"{self.default:g} holds only when {other} is not given either")
+
     def help(self) -> str:
         """One ``--help`` line: ``key = example (summary; range[, default])``."""
         default = "required" if self.default is None else f"default {self.default:g}"
+        if self.default_unless and self.default is not None:
+            default += f", required with {self.default_unless}"
         units = "" if self.units == "1" else f" {self.units}"
         return f"{self.key} = {self.example:g}{units}  ({self.summary}; {self.accepted()}; {default})"
 
@@ -202,6 +218,9 @@ def parse_parameters(specs, raw: Mapping[str, Any], table: str, owner: str) -> d
     values: dict[str, float] = {}
     for spec in specs:
         values.update(spec.parse(raw, table, owner))
+    for spec in specs:  # the rules between keys, once each key's own value is valid
+        if hasattr(spec, "check_together"):
+            spec.check_together(raw, table, owner)
     return values
 
 

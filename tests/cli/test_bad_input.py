@@ -98,6 +98,10 @@ CONDUCTOR_EDGES = [
     ({"eta": "-0.43"}, "material.eta = -0.43: must be > 0"),
     ({"k": "-1e-300"}, "material.k = -1e-300: must be >= 0"),
     ({"kd": "0.5"}, "material.kd = 0.5: not used by facet 'conductor' (it takes: eta, k)"),
+    # gold's k with another metal's eta (or the reverse) is no metal: one of the pair alone is refused
+    ({"k": None, "eta": "0.2"}, "material.k is missing: facet 'conductor' needs k (>= 0) with material.eta = 0.2; "
+                                "the default k = 2.455 holds only when eta is not given either"),
+    ({"eta": None, "k": "4.0"}, "material.eta is missing: facet 'conductor' needs eta (> 0) with material.k = 4.0;"),
 ]
 
 

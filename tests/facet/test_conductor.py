@@ -48,6 +48,19 @@ def test_parameter_ranges():
     assert parse["k"].parse({}, "material", "facet 'conductor'") == {"k": 2.455}
 
 
+def test_gold_defaults_hold_only_together():
+    """Both absent: gold at 548.6 nm; both given: the user's; one alone is refused, naming the
+    missing one (gold's k with another metal's eta would be no metal at all)."""
+    from vcavity.facet import registry
+
+    assert registry.parse("conductor", {}) == {"eta": 0.43, "k": 2.455}
+    assert registry.parse("conductor", {"eta": 0.2, "k": 3.0}) == {"eta": 0.2, "k": 3.0}
+    with pytest.raises(ParameterError, match=r"^material\.k is missing: .* with material\.eta = 0\.2; "):
+        registry.parse("conductor", {"eta": 0.2})
+    with pytest.raises(ParameterError, match=r"^material\.eta is missing: .* with material\.k = 0; "):
+        registry.parse("conductor", {"k": 0})
+
+
 @pytest.mark.parametrize("eta, k", INDICES)
 def test_prepared_data_and_reflectance(eta, k):
     data = conductor.prepare({"eta": eta, "k": k})

@@ -13,7 +13,8 @@ between a bin's bounds, so every decision is the exact one.
 with ``kd = 0``; the perfect mirror (``F = 1``) is its own facet model, ``mirror``.
 
 The defaults are gold at 548.6 nm (photon energy 2.26 eV): ``eta = 0.43``, ``k = 2.455``,
-from the table of Johnson and Christy (J&C, Phys. Rev. B 6, 4370, 1972).
+from the table of Johnson and Christy (J&C, Phys. Rev. B 6, 4370, 1972); they apply only
+together: giving ``eta`` without ``k`` (or ``k`` without ``eta``) is refused.
 
 The facet interface (see :mod:`vcavity.facet.registry`) is implemented by
 :func:`variant`, :func:`prepare`, :func:`event`, :func:`reflectance`,
@@ -35,10 +36,12 @@ DESCRIPTION = ("conductor (metal) facets of complex index eta + i k: reflect wit
                "else absorbed; default gold at 548.6 nm (Johnson & Christy 1972)")
 PARAMETERS = (
     Number("eta", "real part of the complex index eta + i k (default: gold at 548.6 nm, Johnson & Christy 1972)",
-           lo=0.0, lo_open=True, default=0.43, example=0.43),
+           lo=0.0, lo_open=True, default=0.43, example=0.43, default_unless="k"),
     Number("k", "extinction coefficient, the imaginary part of eta + i k (default: gold at 548.6 nm, "
-                "Johnson & Christy 1972)", lo=0.0, default=2.455, example=2.455),
+                "Johnson & Christy 1972)", lo=0.0, default=2.455, example=2.455, default_unless="eta"),
 )
+# the defaults are one metal: gold's eta with another metal's k (or the reverse) is none, so
+# a user who gives one of the two must give the other (docs/physics.md sec. 4)
 VARIANTS = ("conductor",)
 #: Named parameter sets as a user writes them in ``[material]``, covering every variant: the
 #: conformance suite (tests/facet/test_conformance.py) runs every generic check on each.
