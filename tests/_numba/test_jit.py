@@ -118,3 +118,53 @@ def test_every_cached_function_uses_vcavitys_njit():
     offenders = {str(p.relative_to(REPO)): lines for folder in ("vcavity", "tests", "scripts")
                  for p in sorted((REPO / folder).rglob("*.py")) if (lines := _numba_njit_with_cache(p))}
     assert offenders == {}
+
+
+NAMED = """\
+from vcavity._numba import jit
+print(jit.CACHE_LOCATION)
+print(jit.NAMED_CACHE_REFUSED)
+"""
+
+
+def _child_env(tmp_path, **extra):
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR", "XDG_CACHE_HOME", "TMPDIR")}
+    env.update(HOME=str(tmp_path / "home"), PYTHONPATH=str(REPO), **extra)
+    return env
+
+
+def test_an_unusable_named_cache_is_a_note_for_runs_and_an_error_for_warmup(tmp_path):
+    """NUMBA_CACHE_DIR naming a file: a run's process says so in one line and caches in the
+    per-user folder; warmup refuses (exit 2, one line) rather than fill a folder the runs
+    that name this cache never read (issue 38)."""
+    (tmp_path / "home").mkdir()
+    named = tmp_path / "a-file"
+    named.write_text("not a folder")
+    env = _child_env(tmp_path, NUMBA_CACHE_DIR=str(named))
+    child = subprocess.run([sys.executable, "-c", NAMED], env=env, capture_output=True, text=True, timeout=120)
+    assert child.returncode == 0, child.stderr
+    location, refused = child.stdout.strip().splitlines()
+    assert Path(location) == tmp_path / "home" / ".cache" / "vcavity" / __version__ / "numba"
+    assert refused.startswith(f"NUMBA_CACHE_DIR = {str(named)!r}: cannot hold files (")
+    note = child.stderr.strip().splitlines()
+    assert len(note) == 1 and note[0] == f"vcavity: note: {refused}; compiled code goes to {location} instead"
+    warmup = subprocess.run([sys.executable, "-m", "vcavity", "warmup", "--distribution", "ggx", "--facet", "mirror"],
+                            env=env, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert warmup.returncode == 2, warmup.stderr
+    lines = [line for line in warmup.stderr.splitlines() if not line.startswith("vcavity: note: ")]
+    assert len(lines) == 1 and lines[0].startswith(f"vcavity: error: {refused}; warmup fills the cache"), warmup.stderr
+    assert not (tmp_path / "home" / ".cache" / "vcavity" / __version__ / "numba").exists() or not any(
+        (tmp_path / "home" / ".cache").rglob("*.nbi"))  # nothing compiled
+
+
+def test_no_temporary_cache_folder_unless_it_is_used(tmp_path):
+    """The private temporary folder is the last resort: with a usable NUMBA_CACHE_DIR (or a
+    writable home) it is not created (issue 38: every process used to make an empty one)."""
+    (tmp_path / "home").mkdir()
+    (tmp_path / "tmp").mkdir()
+    for extra in ({"NUMBA_CACHE_DIR": str(tmp_path / "chosen")}, {}):
+        env = _child_env(tmp_path, TMPDIR=str(tmp_path / "tmp"), **extra)
+        child = subprocess.run([sys.executable, "-c", NAMED], env=env, capture_output=True, text=True, timeout=120)
+        assert child.returncode == 0 and child.stderr == "", child.stderr
+        assert child.stdout.splitlines()[1] == ""  # nothing refused
+        assert list((tmp_path / "tmp").iterdir()) == [], extra

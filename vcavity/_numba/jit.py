@@ -12,6 +12,8 @@ So this module decides once, at import, where vcavity's compiled code goes:
    ``$XDG_CACHE_HOME/vcavity/<version>/numba`` (``~/.cache/...`` when unset) on Linux,
    ``~/Library/Caches/vcavity/<version>/numba`` on macOS,
    ``%LOCALAPPDATA%\\vcavity\\Cache\\<version>\\numba`` on Windows;
+   (when the folder ``NUMBA_CACHE_DIR`` names cannot be used: a one-line note on stderr, and
+   the next folder here; ``vcavity warmup`` refuses instead, :data:`NAMED_CACHE_REFUSED`);
 3. if that cannot be written (a read-only home), a private folder in the temporary
    directory (``<tmp>/vcavity-numba-cache-<uid>``, mode 0700, used only when it is ours;
    ``<tmp>`` is ``TMPDIR`` when set, else the system's);
@@ -80,7 +82,12 @@ def user_cache_dir(environ=None, platform: str | None = None) -> str | None:
 
 
 def _writable_folder(path: str) -> bool:
-    """Whether ``path`` is, or can be made, a folder this process can write files in.
+    """Whether ``path`` is, or can be made, a folder this process can write files in."""
+    return _unwritable_because(path) is None
+
+
+def _unwritable_because(path: str) -> str | None:
+    """Why ``path`` cannot hold this process's files (one phrase), or None when it can.
 
     The same test as Numba's own (create the folders, then a temporary file there).
     """
@@ -88,9 +95,9 @@ def _writable_folder(path: str) -> bool:
         os.makedirs(path, exist_ok=True)
         with tempfile.TemporaryFile(dir=path):
             pass
-    except OSError:
-        return False
-    return True
+    except OSError as error:
+        return error.strerror or type(error).__name__
+    return None
 
 
 def _temporary_directory() -> str:
@@ -125,18 +132,34 @@ def _private_temporary_cache() -> str | None:
     return path if _writable_folder(path) else None
 
 
-def _choose_cache() -> str:
-    """The folder vcavity's compiled code goes to in this process; "" for none."""
-    for candidate in (numba.config.CACHE_DIR or user_cache_dir(), _private_temporary_cache()):
-        if candidate and _writable_folder(candidate):
-            return os.path.abspath(candidate)
-    print("vcavity: note: no writable Numba cache directory (set NUMBA_CACHE_DIR to one); "
-          "kernels are compiled in every process", file=sys.stderr)
-    return ""
+def _choose_cache() -> tuple[str, str]:
+    """``(folder, why the named one is not it)``: the folder vcavity's compiled code goes to in
+    this process ("" for none), and, when the user named a folder (``NUMBA_CACHE_DIR``) that
+    cannot be used, a one-line reason ("" otherwise)."""
+    named = numba.config.CACHE_DIR
+    refused = ""
+    if named:
+        reason = _unwritable_because(named)
+        if reason is None:
+            return os.path.abspath(named), ""
+        refused = f"NUMBA_CACHE_DIR = {named!r}: cannot hold files ({reason})"
+    # tried in turn, each made only when the one before cannot be used (no stray temporary folder)
+    for candidate in (user_cache_dir, _private_temporary_cache):
+        folder = candidate()
+        if folder and _writable_folder(folder):
+            folder = os.path.abspath(folder)
+            if refused:
+                print(f"vcavity: note: {refused}; compiled code goes to {folder} instead", file=sys.stderr)
+            return folder, refused
+    print(f"vcavity: note: {refused + '; ' if refused else ''}no writable Numba cache directory (set "
+          "NUMBA_CACHE_DIR to one); kernels are compiled in every process", file=sys.stderr)
+    return "", refused
 
 
-#: Folder of vcavity's compiled code ("" when nothing can be cached).
-CACHE_LOCATION = _choose_cache()
+#: Folder of vcavity's compiled code ("" when nothing can be cached), and why the folder the
+#: user named with ``NUMBA_CACHE_DIR`` is not it ("" when none was named or it is used):
+#: ``vcavity warmup`` refuses to fill another folder than the one named.
+CACHE_LOCATION, NAMED_CACHE_REFUSED = _choose_cache()
 #: Whether ``cache=True`` is honoured in this process.
 CACHE_ENABLED = bool(CACHE_LOCATION)
 # several processes may compile into this folder at once: their index writes made exclusive

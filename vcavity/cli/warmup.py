@@ -92,9 +92,12 @@ def command(args: argparse.Namespace) -> int:
         return EXIT_OK
     from tqdm import tqdm
 
-    from vcavity._numba.jit import CACHE_ENABLED, CACHE_LOCATION
+    from vcavity._numba.jit import CACHE_ENABLED, CACHE_LOCATION, NAMED_CACHE_REFUSED
     from vcavity.simulate.warmup import compile_variant
 
+    if NAMED_CACHE_REFUSED:  # filling another folder would leave the named one cold
+        return error(f"{NAMED_CACHE_REFUSED}; warmup fills the cache that runs with this NUMBA_CACHE_DIR "
+                     "read: name a writable folder, or unset it for the per-user cache")
     if not CACHE_ENABLED:
         return error("no writable Numba cache directory here: nothing can be kept (set NUMBA_CACHE_DIR to one)")
     start = time.perf_counter()
