@@ -92,6 +92,22 @@ def test_the_target_error_is_the_model_tolerance(tmp_path):
     assert status == 0
     coarse = open_table(out)
     assert np.all(coarse.relative_error <= 0.02) and coarse.attrs["target_error"] == 0.02
+    assert coarse.target_reached.tolist() == [1, 1]
+
+
+def test_a_tolerance_the_mesh_cannot_meet_is_said(tmp_path, capsys, monkeypatch):
+    """A target error below what the mesh reaches at its size cap (issue 38: exit 0 without a
+    word, target_reached = -1) is stored as not reached and said in the run's report."""
+    from vcavity.analytic import specular_orders
+
+    # a cap of 16 quads a side: a tolerance of 1e-6 cannot be met, as 1e-6 at the default cap
+    monkeypatch.setitem(specular_orders.specular_orders.__kwdefaults__, "max_quads", 16)
+    status, out = run(tmp_path, "capped", "exact", extra=("--target-error", "1e-6"))
+    assert status == 0
+    table = open_table(out)
+    assert table.target_reached.tolist() == [0, 0] and np.all(table.relative_error > 1e-6)
+    said = [line for line in capsys.readouterr().out.splitlines() if "target error 1e-06" in line]
+    assert len(said) == 2 and all("NOT reached: the model's mesh hit its size cap (error " in line for line in said)
 
 
 def test_facets_with_a_body_are_refused_in_one_line(tmp_path, capsys):

@@ -356,7 +356,8 @@ class SpecularOrders:
     holds the orders beyond it (up to the bounce cap): f_inf is the sum of all rows.
     ``brdf = integrals / Ω⊥_c``. ``error`` has the same shape (conservative estimates);
     ``truncated`` is the share of paths the walk's cap would truncate. ``quads`` is the
-    number of quads per side of the finest mesh.
+    number of quads per side of the finest mesh; ``converged`` whether the error estimate
+    met the tolerance (False: the mesh reached ``max_quads`` first).
     """
 
     integrals: np.ndarray
@@ -366,6 +367,7 @@ class SpecularOrders:
     max_order: int
     max_bounces: int
     quads: int
+    converged: bool = True
 
     @property
     def exited(self) -> float:
@@ -480,12 +482,13 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     while True:
         fine, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n, known)
         change = np.abs(fine - coarse)
-        if part(change) <= tolerance * part(fine) or 2 * n > max_quads:
+        converged = bool(part(change) <= tolerance * part(fine))
+        if converged or 2 * n > max_quads:
             break
         coarse, n = fine, 2 * n
     return SpecularOrders(integrals=fine[:-1].reshape(shape), error=change[:-1].reshape(shape),
                           truncated=float(fine[-1]), truncated_error=float(change[-1]),
-                          max_order=int(max_order), max_bounces=int(max_bounces), quads=n)
+                          max_order=int(max_order), max_bounces=int(max_bounces), quads=n, converged=converged)
 
 
 __all__ = ["specular_orders", "mesh_integrals", "tau_nodes", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",

@@ -179,9 +179,11 @@ def report(plan, table) -> None:
     if cfg.target_error is not None and np.all(table["target_reached"] >= 0):  # a model's: its tolerance
         for d, paths, rel_error, reached in zip(cfg.incidence, table["paths"], table["relative_error"],
                                                 table["target_reached"]):
-            state = "reached" if reached == 1 else "NOT reached: path cap hit"
+            cap = "the model's mesh hit its size cap" if table.attrs["deterministic"] else "path cap hit"
+            state = "reached" if reached == 1 else f"NOT reached: {cap}"
+            after = "the model's estimate" if table.attrs["deterministic"] else f"after {int(paths):,} paths"
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
-                  f"(error {rel_error:.3g} after {int(paths):,} paths)")
+                  f"(error {rel_error:.3g}, {after})")
     print(f"wrote {plan.output.path}")
     if table.attrs["deterministic"]:
         print(f"model time {table.attrs['model_time_s']:.2f} s (deterministic table: no path traced)")

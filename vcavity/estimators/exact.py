@@ -114,6 +114,11 @@ class ExactModels(DirectionModels):
         return specular_orders(c.material, incident_vector(direction.theta_i, direction.phi_i), self.sensor,
                                c.max_order, c.effective_max_bounces, tolerance=self.tolerance)
 
+    def reached(self) -> np.ndarray:
+        """Per direction, whether its model met :attr:`tolerance` (False: the mesh hit its size
+        cap first, and the table's error estimate says by how much it missed)."""
+        return np.array([model.converged for model in self.models], dtype=bool)
+
     def ready_line(self, seconds: float) -> str:
         """What ``vcavity run`` says once the models are prepared."""
         return (f"every-order model of {len(self.config.incidence)} direction(s) in {seconds:.2f} s "

@@ -311,7 +311,9 @@ class Simulation:
         paths = self.paths_done(state)
         if self.models is not None:
             self.models.refine(state.tally, paths)
-        reached = state.reached.copy() if self.config.target_error is not None and self.walk is not None else None
+        reached = None
+        if self.config.target_error is not None:  # a model's table: whether its mesh met the tolerance
+            reached = state.reached.copy() if self.walk is not None else self.models.reached()
         compute_time_s = state.compute_time_s if self.walk is not None else self.model_time_s
         return tabulate(self.config, self.sensor, self.estimator, state.tally, state.stats, paths, self.models,
                         reached, compute_time_s=compute_time_s, compile_time_s=self.compile_time_s,
