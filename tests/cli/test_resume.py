@@ -37,11 +37,11 @@ sensor_resolution = 21
 FIELDS = ("counts", "paths", "brdf", "brdf_stderr", "albedo", "absorbed", "truncated", "max_bounces_seen")
 
 
-def _start(tmp_path, out, *extra, env=None):
+def _start(tmp_path, out, *extra, env=None, preexec_fn=None):
     return subprocess.Popen([sys.executable, "-m", "vcavity.cli", "run", str(tmp_path / "run.toml"), "-o", str(out),
                              "-q", "--chunk-blocks", "8", "--checkpoint-every", "0.05", *extra],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
-                            env=env)
+                            env=env, preexec_fn=preexec_fn)
 
 
 def _finish(process, timeout=600):
@@ -190,12 +190,19 @@ def test_resume_replaces_only_its_own_table(left_a_checkpoint, capsys, placed, w
     _same_tables(folder / "own.h5", folder / "out.h5")
 
 
-def test_sigterm_is_handled_as_ctrl_c_with_exit_143(tmp_path):
+def _ignore_sigint():
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # as a non-interactive shell starts `cmd &`
+
+
+@pytest.mark.parametrize("sigint", ["default", "ignored"])
+def test_sigterm_is_handled_as_ctrl_c_with_exit_143(tmp_path, sigint):
     """SIGTERM (a scheduler's or `kill`'s stop) ends a run as Ctrl-C does: the checkpoint is
-    saved, one line says so, no temporary file is left, and the exit status is 143."""
+    saved, one line says so, no temporary file is left, and the exit status is 143; also
+    where SIGINT is ignored, as in a script's background job (issue 38: there the run was
+    lost)."""
     (tmp_path / "run.toml").write_text(CONFIG.format(paths=30_000_000))
     out = tmp_path / "out.h5"
-    process = _start(tmp_path, out)
+    process = _start(tmp_path, out, preexec_fn=_ignore_sigint if sigint == "ignored" else None)
     deadline = time.time() + 120
     while not checkpoint.checkpoint_path(out).exists() and time.time() < deadline:
         time.sleep(0.02)

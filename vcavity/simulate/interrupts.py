@@ -106,17 +106,27 @@ def reset() -> None:
 
 
 class DeferredInterrupt:
-    """Context manager: SIGINT sets :attr:`requested` instead of raising.
+    """Context manager: SIGINT sets :attr:`requested` instead of raising; so does SIGTERM
+    where :func:`install_main_handler` handles it (and it is remembered: exit status 143).
 
-    Outside the main thread, or where SIGINT is ignored (a background job), nothing
-    changes. The previous handler is restored on exit.
+    SIGTERM is taken over on its own, not through the SIGINT handler: where SIGINT is ignored
+    (a background job of a non-interactive shell, ``nohup``) a scheduler's or ``kill``'s
+    SIGTERM must still end the run with its checkpoint, not raise in the middle of a kernel
+    call. Outside the main thread nothing changes; a SIGINT ignored stays ignored. The
+    previous handlers are restored on exit.
     """
 
     def __init__(self):
         self.requested = False
         self._previous = None
+        self._previous_term = None
 
     def _handler(self, signum, frame):
+        self.requested = True
+
+    def _term(self, signum, frame):
+        global _terminated
+        _terminated = True
         self.requested = True
 
     def __enter__(self) -> "DeferredInterrupt":
@@ -126,14 +136,20 @@ class DeferredInterrupt:
             if previous is not signal.SIG_IGN:
                 signal.signal(signal.SIGINT, self._handler)
                 self._previous = previous
+            if signal.getsignal(signal.SIGTERM) is _term_handler:
+                signal.signal(signal.SIGTERM, self._term)
+                self._previous_term = _term_handler
         except ValueError:  # not the main thread: signals are not ours to handle
-            self._previous = None
+            self._previous = self._previous_term = None
         return self
 
     def __exit__(self, *exc_info) -> bool:
         if self._previous is not None:
             signal.signal(signal.SIGINT, self._previous)
             self._previous = None
+        if self._previous_term is not None:
+            signal.signal(signal.SIGTERM, self._previous_term)
+            self._previous_term = None
         return False
 
     def check(self) -> None:
