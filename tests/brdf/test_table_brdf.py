@@ -198,6 +198,22 @@ def test_anisotropic_azimuths(tables):
             at(30, phi)
 
 
+def test_anisotropic_half_circle_serves_its_half_only(tmp_path):
+    """Columns at phi_i = 0, 90, 180 deg: the azimuths between them are served (bilinear, as
+    documented), the wrap-around gap 180 -> 360 deg (180 deg wide) is not: phi_i = 270 deg
+    and its neighbours are refused, one line naming the tabulated azimuths."""
+    t = synthetic(tmp_path / "half.h5", stretched, [30, 30, 30, 60, 60, 60], [0, 90, 180, 0, 90, 180],
+                  material=ANISOTROPIC)
+    wo = t.cell_center
+    at = lambda theta, phi: t.eval(direction(np.radians(theta), np.radians(phi)), wo)  # noqa: E731
+    np.testing.assert_allclose(at(30, 135), 0.5 * (at(30, 90) + at(30, 180)), rtol=1e-12)
+    np.testing.assert_allclose(at(30, 180), t.brdf[2, 0], rtol=1e-12)
+    for phi in (270.0, 181.0, 359.0, -45.0):
+        with pytest.raises(DirectionNotTabulated, match=r"^incident azimuth phi_i = .* deg is not served .*"
+                                                          r"tabulated phi_i \(deg\) 0, 90, 180; "):
+            at(30, phi)
+
+
 def test_order_and_input_errors(tables):
     t = tables["lobe"]
     wi = tabulated(t, 1)
