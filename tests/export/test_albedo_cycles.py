@@ -262,3 +262,25 @@ def test_a_real_sweep_on_the_runs_files_nodes_exports(tmp_path, capsys):
     beyond = lut["E_rest"] * 64
     np.testing.assert_allclose(beyond, np.round(beyond), atol=1e-9)
     assert np.all(np.round(beyond) >= 0) and np.any(beyond > 0)
+
+
+def test_E_avg_stderr_is_the_quadrature_sum_of_the_node_errors(sweeps, tmp_path):
+    """``E_avg*_stderr[x] = sqrt(sum_y (w_y 2 mu_y E_stderr[y, x])^2)`` with the composite
+    Simpson weights written here (1/3 rule on intervals 0-28, 3/8 rule on 28-31; mu_y = y/31,
+    unclamped: 2 mu E vanishes at mu = 0): independent node errors add in quadrature (issue 38
+    item 4). Deterministic."""
+    out = tmp_path / "s.npz"
+    assert _export(sweeps["grid"], out, "--layout", "cycles", "--orders", "1", "inf") == 0
+    lut = np.load(out)
+    h = 1 / 31
+    weights = np.zeros(32)
+    for start in range(0, 28, 2):
+        weights[start:start + 3] += np.array([1, 4, 1]) * h / 3
+    weights[28:] += np.array([1, 3, 3, 1]) * 3 * h / 8
+    np.testing.assert_allclose(weights.sum(), 1.0, rtol=1e-14)
+    mu = np.arange(32) / 31
+    for name in ("", "_f1"):
+        node_errors = lut[f"E{name}_stderr"]
+        assert node_errors.shape == (32, 32) and np.all(node_errors >= 0) and np.any(node_errors > 0)
+        expected = np.sqrt(np.sum(((weights * 2 * mu)[:, None] * node_errors) ** 2, axis=0))
+        np.testing.assert_allclose(lut[f"E_avg{name}_stderr"], expected, rtol=1e-12, atol=0)
