@@ -125,6 +125,11 @@ class Table:
         return str(self.attrs.get("estimator", "analog"))
 
     @property
+    def device(self) -> str:
+        """Where the walk ran: ``"cpu"`` or ``"cuda"`` (tables written before the attribute: ``"cpu"``)."""
+        return str(self.attrs.get("device", "cpu"))
+
+    @property
     def deterministic(self) -> bool:
         """True for a model's table (estimator ``exact``): no paths, ``brdf_stderr`` is the
         model's error estimate, every order analytic."""

@@ -1,0 +1,133 @@
+"""``--device`` and ``simulation.device`` (docs/gpu.md): the walk on a GPU through numba-cuda.
+
+- Refusals: ``device = "cuda"`` with an estimator that traces no path, with a weighted walk
+  (the paper estimator's), with ``--dask``, without numba-cuda (a stand-in makes its import
+  fail) and without a CUDA device or driver is one line naming the field as written
+  (``--device`` when the flag gave the value, else ``simulation.device``), exit status 2,
+  before anything is compiled or written (no file appears), for ``run`` and ``sweep``.
+- Under numba's CUDA simulator (a child process, tests/cli/device_sim_child.py: numba
+  reads ``NUMBA_ENABLE_CUDASIM`` at import), where the kernel's device functions are the
+  CPU's own compiled code on the same streams, ``vcavity run --device cuda`` writes the
+  table of ``--device cpu`` exactly, for any chunking and across a Ctrl-C and
+  ``--resume``; the table records the device and ``vcavity info`` prints it.
+"""
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from vcavity import open_table
+from vcavity.cli import main
+
+HAVE_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+needs_numba_cuda = pytest.mark.skipif(not HAVE_NUMBA_CUDA,
+                                      reason="numba-cuda is not installed (pip install 'vcavity[cuda]')")
+
+#: Two directions of three RNG blocks (the last one short), a small sensor: the default
+#: material (IL paper fig. 7b), the CUDA loop tests' first scene (tests/kernels/cuda_cases.py).
+CONFIG = """\
+[material]
+distribution = "beckmann"
+alpha = 0.6
+kd = 0.9
+eta = 1.5
+[incidence]
+theta_i_deg = [20, 70]
+paths = 8492
+[simulation]
+seed = 3
+max_order = 4
+max_bounces = 100
+sensor_resolution = 9
+{simulation}"""
+SWEEP = CONFIG + "[sweep]\nalpha = [0.3, 0.6]\n"
+
+
+def _write(tmp_path, text, simulation="", name="run.toml"):
+    path = tmp_path / name
+    path.write_text(text.format(simulation=simulation))
+    return path
+
+
+def _refused(tmp_path, capsys, argv) -> str:
+    """Run ``vcavity ARGV``: exit 2, one line on stderr, nothing on stdout, no file written."""
+    before = sorted(tmp_path.iterdir())
+    status = main(argv)
+    captured = capsys.readouterr()
+    assert status == 2, captured.err
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vcavity: error: "), captured.err
+    assert sorted(tmp_path.iterdir()) == before  # no table, no checkpoint, no temporary
+    return lines[0][len("vcavity: error: "):]
+
+
+@pytest.fixture
+def no_numba_cuda(monkeypatch):
+    """numba-cuda as if not installed: importing the CUDA loop fails (``None`` in sys.modules)."""
+    import vcavity.kernels
+
+    monkeypatch.setitem(sys.modules, "vcavity.kernels.cuda_loop", None)
+    monkeypatch.delattr(vcavity.kernels, "cuda_loop", raising=False)
+
+
+@pytest.fixture
+def no_gpu(monkeypatch):
+    """numba-cuda installed, but no CUDA device or driver (as on this project's CI), even
+    where there is one or the simulator is on."""
+    cuda_loop = pytest.importorskip("vcavity.kernels.cuda_loop", reason="numba-cuda is not installed")
+    monkeypatch.setattr(cuda_loop, "SIMULATED", False)
+    monkeypatch.setattr(cuda_loop.cuda, "is_available", lambda: False)
+
+
+WEIGHTED = "the paper estimator runs on the CPU only: its walk is weighted"
+NOT_INSTALLED = "numba-cuda is not installed: pip install 'vcavity[cuda]'"
+NO_DEVICE = "numba-cuda finds no CUDA device or driver here"
+
+
+@pytest.mark.parametrize("flags, simulation, words", [
+    (["--device", "cuda", "--estimator", "paper"], "", f"--device = 'cuda': {WEIGHTED}"),
+    (["--estimator", "paper"], 'device = "cuda"\n', f"simulation.device = 'cuda': {WEIGHTED}"),
+    ([], 'device = "cuda"\nestimator = "paper"\n', f"simulation.device = 'cuda': {WEIGHTED}"),
+    (["--device", "cuda", "--dask", "local:1"], "",
+     "--device = 'cuda': GPUs with Dask (--dask) are not supported yet"),
+    (["--dask", "local:1"], 'device = "cuda"\n', "simulation.device = 'cuda': GPUs with Dask"),
+], ids=["weighted-flag", "weighted-config", "weighted-config-estimator", "dask-flag", "dask-config"])
+def test_a_refused_device_is_one_line_and_writes_nothing(tmp_path, capsys, flags, simulation, words):
+    config = _write(tmp_path, CONFIG, simulation)
+    line = _refused(tmp_path, capsys, ["run", str(config), "-o", str(tmp_path / "t.h5"), "-q", *flags])
+    assert line.startswith(words), line
+
+
+@pytest.mark.parametrize("flag", [True, False], ids=["flag", "config"])
+def test_cuda_without_numba_cuda_is_refused(tmp_path, capsys, no_numba_cuda, flag):
+    config = _write(tmp_path, CONFIG, "" if flag else 'device = "cuda"\n')
+    line = _refused(tmp_path, capsys, ["run", str(config), "-o", str(tmp_path / "t.h5"), "-q"]
+                    + (["--device", "cuda"] if flag else []))
+    assert line == f"{'--device' if flag else 'simulation.device'} = 'cuda': {NOT_INSTALLED}"
+
+
+def test_cuda_without_a_device_is_refused(tmp_path, capsys, no_gpu):
+    config = _write(tmp_path, CONFIG)
+    line = _refused(tmp_path, capsys, ["run", str(config), "-o", str(tmp_path / "t.h5"), "-q", "--device", "cuda"])
+    assert line.startswith(f"--device = 'cuda': {NO_DEVICE}"), line
+
+
+def test_a_sweep_makes_the_same_refusals(tmp_path, capsys, no_numba_cuda):
+    spec = _write(tmp_path, SWEEP, name="sweep.toml")
+    out = str(tmp_path / "s.h5")
+    line = _refused(tmp_path, capsys, ["sweep", str(spec), "-o", out, "-q", "--device", "cuda", "--estimator", "paper"])
+    assert line.startswith(f"--device = 'cuda': {WEIGHTED}"), line
+    assert _refused(tmp_path, capsys, ["sweep", str(spec), "-o", out, "-q", "--device", "cuda"]) == \
+        f"--device = 'cuda': {NOT_INSTALLED}"
+
+
+def test_a_cpu_table_says_so_and_a_table_without_the_attribute_reads_as_cpu():
+    """Tables before the device attribute (tests/io/data) are CPU tables."""
+    from vcavity.io.summary import format_summary
+
+    old = open_table(Path(__file__).parents[1] / "io" / "data" / "table_v2.h5")
+    assert "device" not in old.attrs and old.device == "cpu"
+    assert "device: cpu" in format_summary(old, verbose=True).splitlines()
