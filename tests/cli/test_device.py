@@ -13,9 +13,13 @@
 """
 
 import importlib.util
+import json
+import os
+import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 from vcavity import open_table
@@ -131,3 +135,32 @@ def test_a_cpu_table_says_so_and_a_table_without_the_attribute_reads_as_cpu():
     old = open_table(Path(__file__).parents[1] / "io" / "data" / "table_v2.h5")
     assert "device" not in old.attrs and old.device == "cpu"
     assert "device: cpu" in format_summary(old, verbose=True).splitlines()
+
+
+#: The table's datasets that the device must not change (all but the times, which are attributes).
+FIELDS = ("counts", "brdf", "brdf_stderr", "albedo", "absorbed", "truncated", "degenerate", "paths",
+          "max_bounces_seen", "unbinned_paths", "relative_error")
+
+
+@needs_numba_cuda
+def test_a_simulated_cuda_run_writes_the_cpu_runs_table(tmp_path):
+    config = _write(tmp_path, CONFIG)
+    env = {**os.environ, "NUMBA_ENABLE_CUDASIM": "1"}
+    out = subprocess.run([sys.executable, str(Path(__file__).with_name("device_sim_child.py")), str(config),
+                          str(tmp_path)], env=env, capture_output=True, text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-4000:]
+    result = json.loads(out.stdout.splitlines()[-1])
+    assert result["statuses"] == {"cpu": 0, "cuda": 0, "chunked": 0, "interrupted": 130, "resumed": 0,
+                                  "info": 0}, out.stderr[-4000:]
+    cpu = open_table(tmp_path / "cpu.h5")
+    assert cpu.device == "cpu" and "device_name" not in cpu.attrs and "device" not in cpu.config["simulation"]
+    assert cpu.counts.sum() > 0 and (cpu.counts[:, 1:].sum(axis=2) > 0).all()
+    for name in ("cuda.h5", "cuda_chunked.h5", "cuda_resumed.h5"):
+        table = open_table(tmp_path / name)
+        for field in FIELDS:
+            np.testing.assert_array_equal(getattr(table, field), getattr(cpu, field), err_msg=f"{name}: {field}")
+        assert table.device == "cuda" and table.config["simulation"]["device"] == "cuda"
+        assert {key: table.attrs[key] for key in ("device_name", "cuda_driver_version", "cuda_runtime_version")} \
+            == dict.fromkeys(("device_name", "cuda_driver_version", "cuda_runtime_version"), "simulator")
+    assert not (tmp_path / "cuda_resumed.h5.checkpoint").exists()
+    assert "device: cuda (numba's CUDA simulator)" in result["info"].splitlines()

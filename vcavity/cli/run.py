@@ -101,7 +101,8 @@ def simulate(args: argparse.Namespace):
                  f"{', '.join(p.name for p in plan.removed)}")
         cfg = plan.config
         work = f"{plan.total_paths:,} paths" if plan.traces else f"no path ({cfg.estimator} estimator)"
-        _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {plan.threads} thread(s)")
+        where = "on the CUDA device" if cfg.device == "cuda" else f"{plan.threads} thread(s)"  # --threads: the CPU's
+        _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {where}")
         if plan.resume_note:
             _say(plan.resume_note)
         simulation = service.prepare(plan, _say)

@@ -73,7 +73,7 @@ class Table:
     vcavity_version : str
     attrs : dict
         The remaining root attributes (``block_size``, ``max_bounces``, ``estimator``,
-        ``target_error``, ...).
+        ``target_error``, ``device``, ...).
     order_source : ndarray of int8 (n_k,)
         0 simulated, 1 analytic, 2 analytic f1 plus simulated orders (format 3).
     unbinned_paths : ndarray of int64 (n_i,)
