@@ -164,3 +164,27 @@ def test_a_simulated_cuda_run_writes_the_cpu_runs_table(tmp_path):
             == dict.fromkeys(("device_name", "cuda_driver_version", "cuda_runtime_version"), "simulator")
     assert not (tmp_path / "cuda_resumed.h5.checkpoint").exists()
     assert "device: cuda (numba's CUDA simulator)" in result["info"].splitlines()
+
+
+@needs_numba_cuda
+@pytest.mark.gpu
+def test_a_gpu_run_records_its_device(tmp_path):
+    """On a real device (skipped without one): the run conserves every path, and the table
+    names the GPU and the CUDA versions (its counts agree with the CPU's in distribution
+    only: tests/kernels/test_cuda_loop.py tests that)."""
+    from numba import cuda
+
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1" or not cuda.is_available():
+        pytest.skip("no CUDA device")
+    config = _write(tmp_path, CONFIG)
+    assert main(["run", str(config), "-o", str(tmp_path / "gpu.h5"), "-q", "--device", "cuda"]) == 0
+    table = open_table(tmp_path / "gpu.h5")
+    assert table.device == "cuda" and table.attrs["device_name"] not in ("", "simulator")
+    for key in ("cuda_driver_version", "cuda_runtime_version"):
+        assert all(part.isdigit() for part in table.attrs[key].split(".")), table.attrs[key]
+    lost = table.absorbed + table.truncated + table.degenerate
+    np.testing.assert_allclose(table.counts[:, 0].sum(axis=1) / table.paths + lost, 1.0, rtol=0, atol=1e-12)
+    from vcavity.io.summary import format_summary
+
+    assert any(line.startswith("device: cuda (") and "CUDA driver" in line
+               for line in format_summary(table, verbose=True).splitlines())
