@@ -10,6 +10,8 @@
   CPU's own compiled code on the same streams, ``vcavity run --device cuda`` writes the
   table of ``--device cpu`` exactly, for any chunking and across a Ctrl-C and
   ``--resume``; the table records the device and ``vcavity info`` prints it.
+- ``gpu`` (skipped without a device): a run on a real GPU conserves its paths and names
+  the GPU, the CUDA driver and the runtime.
 """
 
 import importlib.util
