@@ -88,6 +88,8 @@ def test_bad_incidence(incidence, field):
         ({"sensor_resolution": 0}, "simulation.sensor_resolution = 0"),
         ({"track_all_orders": "yes"}, "simulation.track_all_orders = 'yes'"),
         ({"threads": 2}, "simulation.threads = 2"),
+        ({"device": "gpu"}, "simulation.device = 'gpu'"),
+        ({"device": 1}, "simulation.device = 1"),
     ],
 )
 def test_bad_simulation(simulation, field):
@@ -160,6 +162,35 @@ def test_round_trip_through_to_dict():
     cfg = default_config()
     assert cfg.replace(seed=5).seed == 5
     assert cfg.replace(seed=5).material == cfg.material
+
+
+def test_the_device_round_trips_and_a_cpu_run_is_what_it_was_before_the_key():
+    """``simulation.device``: "cpu" by default; "cuda" survives to_dict, validate and
+    replace; a CPU run's dict has no device key, so its checkpoint's and sweep file's
+    digests are those of files written before the key existed."""
+    from vcavity import config as config_mod
+    from vcavity.cli.tracing import add_budget_flags
+    from vcavity.kernels import walks
+
+    raw = _raw()
+    cpu = validate(raw)
+    assert cpu.device == "cpu" and "device" not in cpu.to_dict()["simulation"]
+    assert validate({**raw, "simulation": {"device": "cpu"}}).to_dict() == cpu.to_dict()
+    cuda = validate({**raw, "simulation": {"device": "cuda"}})
+    assert cuda.device == "cuda" and cuda.to_dict()["simulation"]["device"] == "cuda"
+    assert cuda.replace(seed=3).device == "cuda" and cpu.replace(device="cuda") == cuda
+    assert cuda.replace(device="cpu") == cpu
+    as_raw = cuda.to_dict()
+    as_raw.pop("source")
+    as_raw["output"] = {}
+    assert validate(as_raw) == cuda
+    # one list of devices: the config's, the walks' and the --device flag's choices
+    import argparse
+
+    parser = argparse.ArgumentParser()
+    add_budget_flags(parser)
+    flag = next(action for action in parser._actions if "--device" in action.option_strings)
+    assert tuple(flag.choices) == config_mod.DEVICES == walks.DEVICES
 
 
 @pytest.mark.parametrize("theta, phi", [(30, 0), (30.0, 45.0), (10, 100), (89.99999999999999, 359.9), (0.1, -45)])

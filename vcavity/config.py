@@ -34,6 +34,7 @@ A run config has four tables::
     target_error = 0.002           # optional: run each direction until this error ...
                                    # (exact: the model's tolerance, default 1e-3)
     max_paths = 1_000_000_000      # ... or this many paths (default: incidence.paths)
+    device = "cpu"                 # or "cuda": the walk on an NVIDIA GPU (vcavity[cuda], docs/gpu.md)
 
     [output]
     path = "fig7.h5"               # optional; relative to the config file's folder
@@ -68,6 +69,8 @@ MAX_PATHS = 2**62  # paths and block counts stay far from int64 overflow in the 
 # phi + 360 would be two different tables of one direction, and a typo like 1e300 has no
 # meaningful fractional degrees left.
 MAX_PHI_DEG = 360.0
+#: Where the walk runs (``simulation.device``): the CPU's slot loop or numba-cuda's kernel.
+DEVICES = ("cpu", "cuda")
 
 
 @dataclass(frozen=True)
@@ -108,6 +111,7 @@ class RunConfig:
     fold_symmetry: bool | None = None
     target_error: float | None = None
     max_paths: int | None = None
+    device: str = "cpu"
 
     @property
     def orders(self) -> tuple[int, ...]:
@@ -156,6 +160,11 @@ class RunConfig:
                 "fold_symmetry": self.fold_symmetry,
                 "target_error": self.target_error,
                 "max_paths": self.max_paths,
+                # only off the CPU: a CPU run's config, and so the digests of its checkpoint
+                # and sweep file, stay what they were before the key existed (those files
+                # resume); a GPU's tables differ from the CPU's in the last bits (docs/gpu.md),
+                # so the device is part of what defines a run there
+                **({"device": self.device} if self.device != "cpu" else {}),
             },
             "output": {"path": str(self.output) if self.output else None},
             "source": self.source,
@@ -220,7 +229,7 @@ def _list_or_scalar(field_name: str, value: Any, n: int | None) -> list:
 
 _INCIDENCE_KEYS = ("theta_i_deg", "phi_i_deg", "paths")
 _SIMULATION_KEYS = ("seed", "max_order", "max_bounces", "track_all_orders", "sensor_resolution",
-                    "estimator", "fold_symmetry", "target_error", "max_paths")
+                    "estimator", "fold_symmetry", "target_error", "max_paths", "device")
 _OUTPUT_KEYS = ("path",)
 _TOP_KEYS = ("material", "incidence", "simulation", "output")
 
@@ -271,6 +280,10 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
     resolution = _integer("simulation.sensor_resolution",
                           _whole(sim.get("sensor_resolution", DEFAULT_SENSOR_RESOLUTION)), 1, MAX_SENSOR_RESOLUTION)
     estimator, fold, target_error, max_paths = _validate_estimation(sim, material, incidence, track)
+    device = sim.get("device", "cpu")
+    if not isinstance(device, str) or device not in DEVICES:
+        _fail("simulation.device", device, f"accepted: {', '.join(repr(d) for d in DEVICES)} (default 'cpu'; "
+              "'cuda' runs the walk on an NVIDIA GPU: docs/gpu.md)")
     out = _check_keys("output", raw.get("output", {}), _OUTPUT_KEYS)
     output = None
     if out.get("path") is not None:
@@ -295,6 +308,7 @@ def validate(raw: dict, source: str = "<dict>", base_dir: Path | None = None) ->
         fold_symmetry=fold,
         target_error=target_error,
         max_paths=max_paths,
+        device=device,
     )
     estimators.get(estimator).check(config)  # the estimator's own checks (its module says which)
     return config
@@ -423,5 +437,5 @@ def _as_raw(cfg: RunConfig) -> dict[str, Any]:
     return d
 
 
-__all__ = ["ConfigError", "DEFAULT_RAW", "Incidence", "Material", "RunConfig", "default_config", "load",
+__all__ = ["ConfigError", "DEFAULT_RAW", "DEVICES", "Incidence", "Material", "RunConfig", "default_config", "load",
            "read_toml_text", "validate"]

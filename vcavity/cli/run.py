@@ -101,7 +101,8 @@ def simulate(args: argparse.Namespace):
                  f"{', '.join(p.name for p in plan.removed)}")
         cfg = plan.config
         work = f"{plan.total_paths:,} paths" if plan.traces else f"no path ({cfg.estimator} estimator)"
-        _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {plan.threads} thread(s)")
+        where = "on the CUDA device" if cfg.device == "cuda" else f"{plan.threads} thread(s)"  # --threads: the CPU's
+        _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {where}")
         if plan.resume_note:
             _say(plan.resume_note)
         simulation = service.prepare(plan, _say)
@@ -109,8 +110,8 @@ def simulate(args: argparse.Namespace):
         done = int(plan.state.paths_done(cfg).sum()) if plan.state is not None else 0
         progress = None if args.quiet or not plan.traces else ProgressBar(plan.total_paths, done, "tracing")
         table = service.execute(plan, simulation, _say, progress, executor)
-    except PlanError as exc:
-        raise BadInput(str(exc)) from None
+    except PlanError as exc:  # a refusal of an overridden field names the flag (--device)
+        raise BadInput(name_the_flag(str(exc), budget_overrides(args))) from None
     finally:
         if executor is not None:
             executor.close()
@@ -143,7 +144,8 @@ def read_config(args: argparse.Namespace):
         if args.seed is not None:
             cfg = dataclasses.replace(cfg, seed=args.seed)
         overrides = {name: value for name, value in (("estimator", args.estimator),
-                     ("target_error", args.target_error), ("max_paths", args.max_paths)) if value is not None}
+                     ("target_error", args.target_error), ("max_paths", args.max_paths),
+                     ("device", args.device)) if value is not None}
         if args.max_paths is not None and args.target_error is None and cfg.target_error is None:
             raise BadInput(f"--max-paths = {args.max_paths}: applies only with --target-error "
                            "(otherwise --paths is the number of paths)")

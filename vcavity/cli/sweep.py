@@ -35,8 +35,8 @@ label list naming the points, label or label_<units>), e.g. a metal per waveleng
   k = [3.697, 2.455, 1.914]          # (gold, Johnson & Christy 1972)
 The lists it sets are stored as coordinates along the axis (eta(wavelength), ...).
 
-budget flags: --paths, --seed, --estimator, --target-error and --max-paths mean what they
-mean for vcavity run and override incidence.paths and the [simulation] keys at every
+budget flags: --paths, --seed, --estimator, --target-error, --max-paths and --device mean
+what they mean for vcavity run and override incidence.paths and the [simulation] keys at every
 point (e.g. a quick trial: --paths 20000); the file records them (attribute overrides),
 and --resume continues a sweep only with the same ones.
 
@@ -65,7 +65,7 @@ def command(args: argparse.Namespace) -> int:
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
-    from vcavity.simulate.plan import PlanError, check_dask_address
+    from vcavity.simulate.plan import PlanError, check_dask_address, check_device
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -79,6 +79,11 @@ def command(args: argparse.Namespace) -> int:
     try:
         spec = sweep_mod.load(args.sweep, overrides=overrides)
     except sweep_mod.SweepError as exc:
+        return error(name_the_flag(str(exc), overrides))
+    try:
+        for point in spec.points:  # the device's refusals, before the file is touched
+            check_device(point.config, args.dask)
+    except PlanError as exc:
         return error(name_the_flag(str(exc), overrides))
     try:
         output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,

@@ -1,8 +1,8 @@
 """What ``vcavity run`` and ``vcavity sweep`` share: their flags, declared once, and the progress bar.
 
 Both commands trace paths into a file: :func:`add_run_flags` declares their common flags
-(the output, ``--overwrite``, ``--resume``, the budget flags that override the config,
-``--threads``, ``--chunk-blocks``, ``--dask``, ``-q``) with the help each command gives
+(the output, ``--overwrite``, ``--resume``, the flags that override the config's budget,
+estimator and device, ``--threads``, ``--chunk-blocks``, ``--dask``, ``-q``) with the help each command gives
 them; :class:`ProgressBar` is how they show the paths traced (a tqdm bar on stderr, the
 run's relative error beside it when it has a target).
 """
@@ -90,16 +90,17 @@ class ProgressBar:
         self.bar.close()
 
 
-#: The flags ``run`` and ``sweep`` share to override a config's budget: argparse dest ->
-#: (flag, the config field it overrides).
+#: The flags ``run`` and ``sweep`` share to override a config's budget (and its estimator
+#: and device): argparse dest -> (flag, the config field it overrides).
 BUDGET_FLAGS = {"paths": ("--paths", "incidence.paths"), "seed": ("--seed", "simulation.seed"),
                 "estimator": ("--estimator", "simulation.estimator"),
                 "target_error": ("--target-error", "simulation.target_error"),
-                "max_paths": ("--max-paths", "simulation.max_paths")}
+                "max_paths": ("--max-paths", "simulation.max_paths"),
+                "device": ("--device", "simulation.device")}
 
 
 def add_budget_flags(parser: argparse.ArgumentParser) -> None:
-    """Add ``--paths``, ``--seed``, ``--estimator``, ``--target-error`` and ``--max-paths``.
+    """Add ``--paths``, ``--seed``, ``--estimator``, ``--target-error``, ``--max-paths`` and ``--device``.
 
     Parameters
     ----------
@@ -124,6 +125,11 @@ def add_budget_flags(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--max-paths", type=count_arg(1, PATHS_MAX), metavar="N",
                         help="with --target-error: the most paths per direction (default: the config's "
                         "paths) (overrides simulation.max_paths)")
+    # the choices spelled here, not read from vcavity.config: --help loads no registry
+    parser.add_argument("--device", choices=("cpu", "cuda"),
+                        help="where the walk runs: cpu (default), or cuda: an NVIDIA GPU (needs vcavity[cuda]; "
+                        "the unweighted walks only, no --dask; tables agree with the CPU's in distribution, "
+                        "not bit for bit: docs/gpu.md) (overrides simulation.device)")
 
 
 def budget_overrides(args: argparse.Namespace) -> dict:

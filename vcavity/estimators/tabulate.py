@@ -27,7 +27,8 @@ def _stat(stats, names, name: str) -> np.ndarray:
 
 
 def tabulate(config, sensor, estimator, tally, stats, paths, models=None, reached=None, *,
-             compute_time_s: float = 0.0, compile_time_s: float = 0.0, block_size: int = 0) -> TableValue:
+             compute_time_s: float = 0.0, compile_time_s: float = 0.0, block_size: int = 0,
+             device=None) -> TableValue:
     """The table of a finished run.
 
     Parameters
@@ -49,6 +50,10 @@ def tabulate(config, sensor, estimator, tally, stats, paths, models=None, reache
         Seconds spent tracing (a model's table: computing it) and compiling the walk.
     block_size : int
         Paths per random-number block of the walk.
+    device : mapping of str to str, optional
+        Where the walk ran, as root attributes: ``{"device": "cpu"}`` (the default), or
+        ``"cuda"`` with ``device_name``, ``cuda_driver_version``, ``cuda_runtime_version``
+        (:meth:`vcavity.kernels.walks.Walk.device_attributes`).
 
     Returns
     -------
@@ -100,6 +105,7 @@ def tabulate(config, sensor, estimator, tally, stats, paths, models=None, reache
         "deterministic": int(estimator.walk(c.material) is None),
         "model_time_s": 0.0 if models is None else float(models.time_s),
         "model_error_ratio": 0.0 if models is None else float(models.error_ratio(tally, paths)),
+        **{key: str(value) for key, value in (device or {"device": "cpu"}).items()},
     }
     return TableValue(datasets=datasets, material=c.material.to_dict(), attrs=attrs)
 

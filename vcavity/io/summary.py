@@ -62,6 +62,18 @@ def _estimator_line(table) -> str:
     return text
 
 
+def _device_line(table) -> str:
+    """Where the walk ran: ``device: cpu``, or the GPU with its CUDA driver and runtime."""
+    device = str(table.attrs.get("device", "cpu"))  # tables before the attribute: the CPU
+    if device == "cpu":
+        return "device: cpu"
+    name, driver, runtime = (str(table.attrs.get(key, "?")) for key in (
+        "device_name", "cuda_driver_version", "cuda_runtime_version"))
+    if name == driver == runtime == "simulator":
+        return f"device: {device} (numba's CUDA simulator)"
+    return f"device: {device} ({name}, CUDA driver {driver}, runtime {runtime})"
+
+
 def describe_checkpoint(path) -> str:
     """What ``vcavity info`` prints for a checkpoint file."""
     from vcavity.io import checkpoint
@@ -97,6 +109,7 @@ def format_summary(table, verbose: bool = False) -> str:
             t_compile = _number(table.attrs.get("compile_time_s")) or 0.0
             lines.append(f"run time {t_run:.2f} s ({total / t_run / 1e6:.2f} M paths/s), "
                          f"compile/load {t_compile:.2f} s")
+        lines.append(_device_line(table))
     with_error = table.relative_error is not None and np.any(np.isfinite(table.relative_error))
     header = ["theta_i", "phi_i", "paths"] + [f"albedo {order_name(int(k))}" for k in table.order] + [
         "absorbed", "truncated"] + (["rel. error f_inf"] if with_error else [])

@@ -73,7 +73,7 @@ class Table:
     vcavity_version : str
     attrs : dict
         The remaining root attributes (``block_size``, ``max_bounces``, ``estimator``,
-        ``target_error``, ...).
+        ``target_error``, ``device``, ...).
     order_source : ndarray of int8 (n_k,)
         0 simulated, 1 analytic, 2 analytic f1 plus simulated orders (format 3).
     unbinned_paths : ndarray of int64 (n_i,)
@@ -123,6 +123,11 @@ class Table:
     def estimator(self) -> str:
         """``analog``, ``exact-f1``, ``paper`` or ``exact`` (tables before format 3: ``analog``)."""
         return str(self.attrs.get("estimator", "analog"))
+
+    @property
+    def device(self) -> str:
+        """Where the walk ran: ``"cpu"`` or ``"cuda"`` (tables written before the attribute: ``"cpu"``)."""
+        return str(self.attrs.get("device", "cpu"))
 
     @property
     def deterministic(self) -> bool:

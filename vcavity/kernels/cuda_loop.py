@@ -137,11 +137,17 @@ class CudaKernel:
         The kernel (:func:`build_cuda`), compiled on its first launch.
     threads_per_block : int
         Threads of a CUDA block, the launch's default; no result depends on it.
+
+    Attributes
+    ----------
+    launched : bool
+        Whether it was launched (and so compiled) in this process.
     """
 
     def __init__(self, kernel, threads_per_block: int = 128):
         self.kernel = kernel
         self.threads_per_block = _positive(threads_per_block, "threads_per_block", MAX_THREADS_PER_BLOCK)
+        self.launched = False  # compiled on the first launch (no disk cache yet)
 
     def __call__(self, call) -> tuple:
         return self.launch(call)
@@ -168,7 +174,28 @@ class CudaKernel:
         # a launch even for a call without blocks: it compiles the kernel, as SlotKernel's slot 0 does
         self.kernel[grid, threads](*args[:7], cuda.to_device(args[7]), cuda.to_device(args[8]), *args[9:], counts,
                                    stats)
+        self.launched = True
         return counts.copy_to_host()[None], stats.copy_to_host()[None]
+
+
+def device_attributes() -> dict:
+    """What a table records of the device that ran its walk (docs/hdf5-format.md).
+
+    Returns
+    -------
+    dict of str to str
+        ``device_name`` (the current GPU's name), ``cuda_driver_version`` and
+        ``cuda_runtime_version`` (``"13.0"``); each ``"simulator"`` under numba's CUDA
+        simulator, which has no device, driver or runtime.
+    """
+    if SIMULATED:
+        return {"device_name": "simulator", "cuda_driver_version": "simulator", "cuda_runtime_version": "simulator"}
+    from numba.cuda.cudadrv import driver
+
+    name = cuda.get_current_device().name
+    return {"device_name": name.decode() if isinstance(name, bytes) else str(name),
+            "cuda_driver_version": ".".join(map(str, driver.driver.get_version())),
+            "cuda_runtime_version": ".".join(map(str, cuda.runtime.get_version()))}
 
 
 def _positive(value, name: str, most: int = 2 ** 31 - 1) -> int:
@@ -239,4 +266,4 @@ def ptx(walk_kind: int, dist_kind: int, facet_kind: int, facet_variant: int, cc:
     return text
 
 
-__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "ptx"]
+__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "device_attributes", "ptx"]

@@ -7,7 +7,9 @@ An estimator names the walk it needs (:mod:`vcavity.estimators.registry`): ``"v-
 builds a scene's :class:`Walk`, the one slot loop (:mod:`vcavity.kernels.loop`) compiled
 for that walk and scene, which a run calls with a :class:`WalkCall` and which answers
 with its tally planes and statistics columns by name, summed over its thread slots
-(``max_bounces``: the maximum).
+(``max_bounces``: the maximum). On ``device="cuda"`` the loop is the CUDA kernel
+(:mod:`vcavity.kernels.cuda_loop`, numba-cuda imported only then): the same call traces
+the call's blocks in one launch and answers the same way.
 """
 
 from __future__ import annotations
@@ -20,6 +22,9 @@ import numpy as np
 from vcavity.kernels import loop
 from vcavity.kernels import registry as walk_registry
 from vcavity.microfacet import registry as distributions
+
+#: Where a walk runs: the CPU's slot loop, or the CUDA kernel (as ``simulation.device``).
+DEVICES = ("cpu", "cuda")
 
 
 @dataclass(frozen=True)
@@ -75,20 +80,45 @@ class Walk:
     name : str
     tallies, stats : tuple of str
         The walk's tally planes and statistics columns.
-    kernel : vcavity.kernels.loop.SlotKernel
+    device : str
+        ``"cpu"`` or ``"cuda"`` (:data:`DEVICES`).
+    kernel : vcavity.kernels.loop.SlotKernel or vcavity.kernels.cuda_loop.CudaKernel
+        The CPU's slot loop, or on ``"cuda"`` the CUDA kernel: both take a
+        :class:`WalkCall` and give per-slot tallies (the kernel one slot row, its
+        ``n_slots`` unused).
     """
 
-    def __init__(self, module, dist_kind: int, facet_kind: int, facet_variant: int):
+    def __init__(self, module, dist_kind: int, facet_kind: int, facet_variant: int, device: str = "cpu"):
+        if device not in DEVICES:
+            raise ValueError(f"device = {device!r}: accepted: {', '.join(map(repr, DEVICES))}")
         self.name = module.NAME
         self.tallies = module.TALLIES
         self.stats = module.STATS
-        self.kernel = loop.build(walk_registry.kind_of(module.NAME), dist_kind, facet_kind, facet_variant)
+        self.device = device
+        kind = walk_registry.kind_of(module.NAME)
+        if device == "cuda":
+            from vcavity.kernels import cuda_loop  # numba-cuda is optional: loaded only for a GPU run
+
+            self.kernel = cuda_loop.build_cuda(kind, dist_kind, facet_kind, facet_variant)
+        else:
+            self.kernel = loop.build(kind, dist_kind, facet_kind, facet_variant)
         self._prepare, self._dist_kind = module.prepare_direction, dist_kind
 
     @property
     def compiled(self) -> bool:
         """Whether the walk is compiled (or loaded from the cache) in this process."""
+        if self.device == "cuda":
+            return self.kernel.launched
         return bool(self.kernel.walk.overloads)
+
+    def device_attributes(self) -> dict:
+        """What a table records of where the walk ran (docs/hdf5-format.md): ``device``, and
+        for ``"cuda"`` the GPU's name and the CUDA driver's and runtime's versions."""
+        if self.device == "cpu":
+            return {"device": "cpu"}
+        from vcavity.kernels import cuda_loop
+
+        return {"device": self.device, **cuda_loop.device_attributes()}
 
     def __call__(self, call: WalkCall) -> tuple[dict, dict]:
         """Trace ``call``'s blocks; returns ``(tallies, stats)`` by name, summed over the slots.
@@ -105,21 +135,35 @@ class Walk:
         return tallies, stats
 
 
-def get(name: str, dist_kind: int, facet_kind: int, facet_variant: int) -> Walk:
+def get(name: str, dist_kind: int, facet_kind: int, facet_variant: int, device: str = "cpu") -> Walk:
     """The walk ``name`` for one scene (its kernel built once per process).
+
+    Parameters
+    ----------
+    name : str
+        A registered walk.
+    dist_kind, facet_kind, facet_variant : int
+        The scene: distribution and facet model (registry positions), facet variant.
+    device : str
+        ``"cpu"`` (the slot loop) or ``"cuda"`` (the CUDA kernel; needs numba-cuda, an
+        unweighted walk and a GPU or the simulator: a run checks them first,
+        :func:`vcavity.simulate.plan.check_device`).
 
     Raises
     ------
     KeyError
         An unknown walk (naming the registered ones).
     ValueError
-        The walk cannot walk the distribution (:func:`vcavity.kernels.smith.walkable`).
+        The walk cannot walk the distribution (:func:`vcavity.kernels.smith.walkable`); an
+        unknown device; on ``"cuda"``, a weighted walk.
+    ImportError
+        On ``"cuda"``, numba-cuda is not installed.
     """
     module = walk_registry.get(name)
     reason = module.walkable(distributions.MODULES[distributions.REGISTRY.check_kind(dist_kind, "walks.get")].NAME)
     if reason is not None:
         raise ValueError(reason)
-    return Walk(module, dist_kind, facet_kind, facet_variant)
+    return Walk(module, dist_kind, facet_kind, facet_variant, device)
 
 
-__all__ = ["Walk", "WalkCall", "get"]
+__all__ = ["DEVICES", "Walk", "WalkCall", "get"]

@@ -112,9 +112,10 @@ class Simulation:
         self.sensor = EqualAreaSensor(config.sensor_resolution)
         self.models = self.estimator.models(config, self.sensor)
         walk_name = self.estimator.walk(config.material)
-        # an estimator without a walk traces nothing: no kernel is built or compiled
+        # an estimator without a walk traces nothing: no kernel is built or compiled; the
+        # device picks the walk's loop (the CPU's slot loop, or the CUDA kernel)
         self.walk = None if walk_name is None else walks.get(walk_name, self.scene.dist_kind, self.scene.facet_kind,
-                                                              self.scene.facet_variant)
+                                                              self.scene.facet_variant, device=config.device)
         if self.walk is not None:
             unknown = sorted(set(self.estimator.TALLIES) - set(self.walk.tallies)) + sorted(
                 set(self.estimator.STATS) - set(self.walk.stats))
@@ -126,7 +127,8 @@ class Simulation:
 
     @property
     def kernel(self):
-        """The walk's compiled kernel (:class:`vcavity.kernels.loop.SlotKernel`), or None."""
+        """The walk's compiled kernel (:class:`vcavity.kernels.loop.SlotKernel`, on CUDA
+        :class:`vcavity.kernels.cuda_loop.CudaKernel`), or None."""
         return None if self.walk is None else self.walk.kernel
 
     @property
@@ -315,9 +317,11 @@ class Simulation:
         if self.config.target_error is not None:  # a model's table: whether its mesh met the tolerance
             reached = state.reached.copy() if self.walk is not None else self.models.reached()
         compute_time_s = state.compute_time_s if self.walk is not None else self.model_time_s
+        # a model's table is computed on the CPU, whatever the config's device
+        device = self.walk.device_attributes() if self.walk is not None else {"device": "cpu"}
         return tabulate(self.config, self.sensor, self.estimator, state.tally, state.stats, paths, self.models,
                         reached, compute_time_s=compute_time_s, compile_time_s=self.compile_time_s,
-                        block_size=BLOCK_SIZE)
+                        block_size=BLOCK_SIZE, device=device)
 
 
 def _execute_here(simulation: Simulation, units):

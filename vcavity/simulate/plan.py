@@ -6,9 +6,10 @@ a :class:`RunPlan`, or raises :class:`PlanError` with one line naming the flag o
 the user wrote it, the value and what is accepted: the output path (links, folders,
 FIFOs, the config itself, an existing file without ``--overwrite``, a folder that does not
 exist or takes no file), the checkpoint (resumed, refused, or another run's), the
-threads, the Dask address's form, the estimator's own refusals (a model's table has
-nothing to distribute), the memory and the disk space. A sweep makes the same checks of
-its points (:mod:`vcavity.sweep.run`): :func:`check_threads`, :func:`check_dask_address`.
+threads, the Dask address's form, the device (:func:`check_device`), the estimator's own
+refusals (a model's table has nothing to distribute), the memory and the disk space. A
+sweep makes the same checks of its points (:mod:`vcavity.sweep.run`, ``vcavity sweep``):
+:func:`check_threads`, :func:`check_dask_address`, :func:`check_device`.
 
 The checks that touch files are io's (:mod:`vcavity.io.preflight`); this module knows
 which to make and in what order. Nothing here compiles.
@@ -137,6 +138,61 @@ def check_dask_address(address: str | None) -> None:
         raise PlanError(f"--dask = {address!r}: {exc}") from None
 
 
+def cuda_unavailable() -> str | None:
+    """Why this process cannot run CUDA kernels, or None when it can (a GPU and its driver,
+    or numba's CUDA simulator, ``NUMBA_ENABLE_CUDASIM=1``).
+
+    numba-cuda is imported here, when a run asks for it, never when vcavity is imported.
+
+    Returns
+    -------
+    str or None
+        One phrase: numba-cuda is not installed, or no CUDA device or driver is found.
+    """
+    try:
+        from vcavity.kernels import cuda_loop
+    except ImportError:
+        return "numba-cuda is not installed: pip install 'vcavity[cuda]'"
+    if cuda_loop.SIMULATED or cuda_loop.cuda.is_available():
+        return None
+    return ("numba-cuda finds no CUDA device or driver here (numba.cuda.is_available() is False; "
+            "the kernels need an NVIDIA GPU with a CUDA 13 driver)")
+
+
+def check_device(config: RunConfig, dask: str | None = None) -> None:
+    """Whether the run's walk can run on ``config.device``, before anything compiles.
+
+    The CPU always can. CUDA refuses, in this order: an estimator that traces no path, a
+    weighted walk (the paper estimator's), ``--dask``, numba-cuda not installed, and no
+    CUDA device or driver (:func:`cuda_unavailable`).
+
+    Raises
+    ------
+    PlanError
+        One line starting ``simulation.device = 'cuda':`` (the command names ``--device``
+        instead when the flag gave the value).
+    """
+    if config.device == "cpu":
+        return
+    field = f"simulation.device = {config.device!r}"
+    walk = estimators.get(config.estimator).walk(config.material)
+    if walk is None:
+        raise PlanError(f"{field}: the {config.estimator} estimator traces no path, there is nothing to run on "
+                        "a GPU")
+    from vcavity.kernels import registry as walks
+
+    if walks.get(walk).WEIGHTED:
+        unweighted = ", ".join(m.NAME for m in walks.MODULES if not m.WEIGHTED)
+        raise PlanError(f"{field}: the {config.estimator} estimator runs on the CPU only: its walk is weighted "
+                        f"(the GPU runs the unweighted walks: {unweighted})")
+    if dask is not None:
+        raise PlanError(f"{field}: GPUs with Dask (--dask) are not supported yet; run without --dask, or on the "
+                        "CPU")
+    reason = cuda_unavailable()
+    if reason is not None:
+        raise PlanError(f"{field}: {reason}")
+
+
 def plan_run(request: RunRequest) -> RunPlan:
     """Every check of a run, in the order a user fixes them (module doc).
 
@@ -159,6 +215,7 @@ def plan_run(request: RunRequest) -> RunPlan:
                            "pass --overwrite to replace it")
         threads = check_threads(request.threads)
         check_dask_address(request.dask)
+        check_device(cfg, request.dask)
         estimator = estimators.get(cfg.estimator)
         if request.dask is not None and estimator.walk(cfg.material) is None:
             raise PlanError(f"--dask = {request.dask!r}: the {cfg.estimator} estimator traces no path, there is "
@@ -202,4 +259,5 @@ def _start(request: RunRequest, config: RunConfig, output: Path, n_cells: int):
     return state, f"resuming from {path} ({int(state.paths_done(config).sum()):,} of {planned:,} paths done)"
 
 
-__all__ = ["PlanError", "RunPlan", "RunRequest", "check_dask_address", "check_threads", "plan_run"]
+__all__ = ["PlanError", "RunPlan", "RunRequest", "check_dask_address", "check_device", "check_threads",
+           "cuda_unavailable", "plan_run"]
