@@ -131,6 +131,20 @@ def test_what_needs_paths_is_refused(tmp_path, capsys, flags, words):
     assert words in capsys.readouterr().err
 
 
+def test_a_sweep_of_exact_points_with_dask_is_refused_like_a_run(tmp_path, capsys):
+    """Issue 38: `sweep --dask` with the exact estimator ran; a run refuses it (nothing to
+    distribute). One line, exit 2, no file."""
+    spec = tmp_path / "sweep.toml"
+    spec.write_text(MIRROR.format(paths=1000, estimator="exact").replace("alpha = 0.5\n", "")
+                    .replace("theta_i_deg = [10, 65]\n", "") + "[sweep]\nalpha = [0.3, 0.9]\ntheta_i_deg = [0, 60]\n")
+    out = tmp_path / "sweep.h5"
+    assert main(["sweep", str(spec), "-o", str(out), "-q", "--dask", "local:2"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == ["vcavity: error: --dask = 'local:2': the exact estimator traces no path, there is nothing to "
+                   "distribute"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["sweep.toml"]
+
+
 def test_exports_and_the_table_api_take_an_exact_table(tables, tmp_path):
     exact, _ = tables
     for fmt in ("rgl", "merl"):

@@ -9,7 +9,8 @@ exist or takes no file), the checkpoint (resumed, refused, or another run's), th
 threads, the Dask address's form, the device (:func:`check_device`), the estimator's own
 refusals (a model's table has nothing to distribute), the memory and the disk space. A
 sweep makes the same checks of its points (:mod:`vcavity.sweep.run`, ``vcavity sweep``):
-:func:`check_threads`, :func:`check_dask_address`, :func:`check_device`.
+:func:`check_threads`, :func:`check_dask_address`, :func:`check_device`,
+:func:`check_dask_work`.
 
 The checks that touch files are io's (:mod:`vcavity.io.preflight`); this module knows
 which to make and in what order. Nothing here compiles.
@@ -193,6 +194,19 @@ def check_device(config: RunConfig, dask: str | None = None) -> None:
         raise PlanError(f"{field}: {reason}")
 
 
+def check_dask_work(config: RunConfig, dask: str | None) -> None:
+    """``--dask`` needs paths to distribute: an estimator that traces none is refused (one line).
+
+    Raises
+    ------
+    PlanError
+        ``--dask = '...': the exact estimator traces no path, there is nothing to distribute``.
+    """
+    if dask is not None and estimators.get(config.estimator).walk(config.material) is None:
+        raise PlanError(f"--dask = {dask!r}: the {config.estimator} estimator traces no path, there is "
+                        "nothing to distribute")
+
+
 def plan_run(request: RunRequest) -> RunPlan:
     """Every check of a run, in the order a user fixes them (module doc).
 
@@ -216,10 +230,8 @@ def plan_run(request: RunRequest) -> RunPlan:
         threads = check_threads(request.threads)
         check_dask_address(request.dask)
         check_device(cfg, request.dask)
+        check_dask_work(cfg, request.dask)
         estimator = estimators.get(cfg.estimator)
-        if request.dask is not None and estimator.walk(cfg.material) is None:
-            raise PlanError(f"--dask = {request.dask!r}: the {cfg.estimator} estimator traces no path, there is "
-                            "nothing to distribute")
         n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
         preflight.check_memory(cfg, threads, n_cells, len(estimator.TALLIES))
         removed = preflight.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
