@@ -112,8 +112,9 @@ def configs(paths: int, microsurface: str = "v-cavity", estimator: str = "analog
             yield f"{dname}/{fname}", _toml(material, simulation, None if estimator == "exact" else paths)
 
 
-def digest(table_path: Path) -> str:
-    """sha256 over the table's datasets and result attributes (see the module doc)."""
+def digest(table_path: Path, skip: frozenset = frozenset()) -> str:
+    """sha256 over the table's datasets and result attributes (see the module doc), less the
+    root attributes named in ``skip``."""
     import h5py
 
     h = hashlib.sha256()
@@ -125,7 +126,7 @@ def digest(table_path: Path) -> str:
                 h.update(data.tobytes())
         for owner, attrs in (("/", h5.attrs), ("/material", h5["material"].attrs)):
             for key in sorted(attrs.keys()):
-                if owner == "/" and key in VOLATILE:
+                if owner == "/" and (key in VOLATILE or key in skip):
                     continue
                 h.update(f"{owner}{key}={np.asarray(attrs[key]).tolist()!r}".encode())
     return h.hexdigest()[:16]
@@ -143,6 +144,9 @@ def main(argv=None) -> int:
     parser.add_argument("--extras", action="store_true",
                         help="the runs of EXTRAS instead of the grid (target errors, f_inf not tracked, ...)")
     parser.add_argument("--threads", type=int, default=2, help="threads of each run (default 2)")
+    parser.add_argument("--skip-attr", action="append", default=[], metavar="NAME",
+                        help="leave this root attribute out of the digests (repeatable): to compare with a "
+                             "commit from before the attribute existed, e.g. --skip-attr device")
     args = parser.parse_args(argv)
     from vcavity.cli import main as vcavity_main
 
@@ -162,7 +166,7 @@ def main(argv=None) -> int:
             if status != 0:
                 print(f"{name}: vcavity run exited {status}:\n{said.getvalue()}", file=sys.stderr)
                 return 1
-            out[name] = digest(table)
+            out[name] = digest(table, frozenset(args.skip_attr))
             print(f"{name:28s} {out[name]}", flush=True)
     if args.json:
         with open(args.json, "w") as f:
