@@ -78,22 +78,6 @@ def device_line() -> str:
     return f"{name}, compute capability {device.compute_capability}, driver {driver}, runtime {runtime}"
 
 
-def _walk_call(sim, incident, key, n_blocks: int, n_paths: int, first_block: int = 0):
-    """The WalkCall a run of ``sim`` makes for ``n_paths`` paths from block ``first_block`` (as
-    Simulation._call builds it), its per-direction setup filled in."""
-    from vcavity.kernels import registry as walk_registry
-    from vcavity.kernels.walks import WalkCall
-
-    c = sim.config
-    module = walk_registry.get(sim.walk.name)
-    setup = module.prepare_direction(float(incident[0]), float(incident[1]), float(incident[2]), sim.scene.params,
-                                     sim.scene.dist_kind)
-    return WalkCall(incident=incident, direction_key=key, first_block=first_block, n_blocks=n_blocks, n_paths=n_paths,
-                    params=sim.scene.params, facet_data=sim.scene.facet_data, max_bounces=c.effective_max_bounces,
-                    max_order=c.max_order, resolution=c.sensor_resolution, n_slots=1,
-                    first_binned_order=sim.estimator.FIRST_BINNED_ORDER, setup=float(setup))
-
-
 def albedo_z(gpu_counts, gpu_paths: int, cpu_counts, cpu_paths: int) -> float:
     """Largest |z| over order slots between the two targets' albedo fractions (binomial errors)."""
     worst = 0.0
@@ -106,52 +90,47 @@ def albedo_z(gpu_counts, gpu_paths: int, cpu_counts, cpu_paths: int) -> float:
 
 
 def bench_config(label: str, material: dict, args) -> dict:
-    """One config's CPU and GPU rates, compile times and albedo agreement."""
+    """One config's CPU and GPU rates, compile times and albedo agreement (both targets are
+    called as a run calls them: ``Simulation._call``, the GPU's with ``device = "cuda"``)."""
     import numba
     import numpy as np
 
     from vcavity.config import validate
-    from vcavity.kernels import cuda_loop
-    from vcavity.kernels import registry as walk_registry
     from vcavity.rng import BLOCK_SIZE, direction_key
     from vcavity.simulate.pipeline import Simulation, incident_vector
 
-    cfg = validate({"material": material, "incidence": {"theta_i_deg": [args.theta_deg], "paths": 10**6}})
+    table = {"material": material, "incidence": {"theta_i_deg": [args.theta_deg], "paths": 10**6}}
     threads = numba.config.NUMBA_NUM_THREADS
-    sim = Simulation(cfg, threads=threads)
-    d = cfg.incidence[0]
-    incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cfg.seed, d.theta_i, d.phi_i)
-    cpu_compile_s = sim.compile()
-    row = {"label": label, "cpu_threads": threads, "cpu_compile_or_load_s": cpu_compile_s}
+    cpu = Simulation(validate(table), threads=threads)
+    gpu = Simulation(validate({**table, "simulation": {"device": "cuda"}}))
+    d = cpu.config.incidence[0]
+    incident, key = incident_vector(d.theta_i, d.phi_i), direction_key(cpu.config.seed, d.theta_i, d.phi_i)
+    row = {"label": label, "cpu_threads": threads, "cpu_compile_or_load_s": cpu.compile()}
 
     cpu_paths = int(args.cpu_paths)
     rates = []
     for _ in range(args.repeat):
         t0 = time.perf_counter()
-        cpu_tallies, _ = sim._call(incident, key, 0, -(-cpu_paths // BLOCK_SIZE), cpu_paths)
+        cpu_tallies, _ = cpu._call(incident, key, 0, -(-cpu_paths // BLOCK_SIZE), cpu_paths)
         rates.append(cpu_paths / (time.perf_counter() - t0))
     row["cpu_rate"] = statistics.median(rates)
 
-    kernel = cuda_loop.build_cuda(walk_registry.kind_of(sim.walk.name), sim.scene.dist_kind, sim.scene.facet_kind,
-                                  sim.scene.facet_variant)
-    t0 = time.perf_counter()
-    kernel(_walk_call(sim, incident, key, 0, 0))  # a launch without blocks compiles the kernel
-    row["gpu_compile_s"] = time.perf_counter() - t0
+    row["gpu_compile_s"] = gpu.compile()  # numba-cuda keeps no disk cache for it yet: a compile
     gpu_paths = int(args.gpu_paths)
     # the GPU's blocks start after the CPU's: two independent samples for the albedo z
     after = -(-cpu_paths // BLOCK_SIZE)
-    call = _walk_call(sim, incident, key, -(-gpu_paths // BLOCK_SIZE), after * BLOCK_SIZE + gpu_paths, after)
-    warm = min(64, call.n_blocks)
-    kernel(_walk_call(sim, incident, key, warm, (after + warm) * BLOCK_SIZE, after))  # warm-up: load, allocations
+    n_blocks, total = -(-gpu_paths // BLOCK_SIZE), after * BLOCK_SIZE + gpu_paths
+    warm = min(64, n_blocks)
+    gpu._call(incident, key, after, warm, (after + warm) * BLOCK_SIZE)  # warm-up: module load, allocations
     rates = []
     for _ in range(args.repeat):
         t0 = time.perf_counter()
-        gpu_counts, gpu_stats = kernel(call)  # copies the tallies back: the launch has finished
+        gpu_tallies, gpu_stats = gpu._call(incident, key, after, n_blocks, total)  # copied back: finished
         rates.append(gpu_paths / (time.perf_counter() - t0))
     row["gpu_rate"] = statistics.median(rates)
     row["ratio"] = row["gpu_rate"] / row["cpu_rate"]
-    row["albedo_max_abs_z"] = albedo_z(gpu_counts[0], gpu_paths, cpu_tallies["counts"], cpu_paths)
-    assert np.all(gpu_counts >= 0) and np.all(gpu_stats >= 0)
+    row["albedo_max_abs_z"] = albedo_z(gpu_tallies["counts"], gpu_paths, cpu_tallies["counts"], cpu_paths)
+    assert np.all(gpu_tallies["counts"] >= 0) and all(v >= 0 for v in gpu_stats.values())
     return row
 
 
