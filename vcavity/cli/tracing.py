@@ -24,7 +24,9 @@ HELP = {
         "resume": "continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same config "
                   "and seed; the table equals an uninterrupted run's, bit for bit); a file at OUT.h5 is replaced "
                   "only if it is this run's own table, else only with --overwrite",
-        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default 512; does not change results)",
+        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default: sized to about 0.5 s of work per "
+                        "call, 1 s on a GPU or a Dask worker, so Ctrl-C is answered within that; does not "
+                        "change results)",
         "dask": "run the work units on a Dask cluster: a scheduler address (tcp://host:8786) or local:N for N "
                 "local worker processes (needs vcavity[distributed]; docs/distributed.md); the table is the "
                 "local run's, bit for bit",
@@ -34,7 +36,8 @@ HELP = {
         "overwrite": "replace an existing output",
         "resume": "continue the sweep in the existing output: run only the points not done (refused if it "
                   "holds another sweep)",
-        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (does not change results)",
+        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default: sized to about 0.5 s of work per "
+                          "call; does not change results)",
         "dask": "run each point's work units on a Dask cluster: a scheduler address (tcp://host:8786) or "
                 "local:N (a LocalCluster of N workers); same file as a local run",
     },

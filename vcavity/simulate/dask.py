@@ -30,13 +30,18 @@ import logging
 import os
 import signal
 import threading
+import time
+
+#: Seconds of work a task aims at (docs/distributed.md, "How a run is cut").
+TASK_TARGET_S = 1.0
 
 #: per worker process: serialised run config -> Simulation
 _SIMULATIONS: dict[str, object] = {}
 
 
 def _execute_remote(config_json: str, threads: int, unit):
-    """Run one work unit on a worker (module level, so Dask can pickle it by name)."""
+    """Run one work unit on a worker (module level, so Dask can pickle it by name);
+    returns its outcome and the seconds it took (which size the next units)."""
     simulation = _SIMULATIONS.get(config_json)
     if simulation is None:
         from vcavity import config as config_mod
@@ -47,7 +52,9 @@ def _execute_remote(config_json: str, threads: int, unit):
         simulation.compile()
         _SIMULATIONS.clear()  # one run at a time per worker: free the previous kernel's state
         _SIMULATIONS[config_json] = simulation
-    return simulation.execute(unit)
+    t0 = time.perf_counter()
+    outcome = simulation.execute(unit)
+    return outcome, time.perf_counter() - t0
 
 
 #: the loggers quieted while an executor shuts down (a prefix of the logger's name)
@@ -209,6 +216,8 @@ class DaskExecutor:
         Units are drawn from ``units`` lazily, at most ``in_flight`` ahead of the one
         being merged, so a direction of 2^62 paths never materialises its unit list.
         """
+        # a task should take about a second on its worker: its overhead is milliseconds
+        simulation.chunks.aim(TASK_TARGET_S)
         config = simulation.config.to_dict()
         raw = {key: config[key] for key in ("material", "incidence", "simulation")}
         config_json = json.dumps(raw, sort_keys=True)
@@ -225,7 +234,9 @@ class DaskExecutor:
                 if not window:
                     return
                 unit, future = window.popleft()
-                yield unit, future.result()
+                outcome, seconds = future.result()
+                simulation.chunks.observe(unit.n_blocks, seconds)
+                yield unit, outcome
         finally:  # a stop between units: cancel what is still queued or running
             pending = [f for _, f in window if not f.done()]
             if pending:
