@@ -87,6 +87,8 @@ def simulate(args: argparse.Namespace):
     BadInput
         The first check that failed, as its one-line error.
     """
+    import contextlib
+
     from vcavity.simulate import service
     from vcavity.simulate.plan import PlanError, RunRequest, plan_run
 
@@ -94,8 +96,11 @@ def simulate(args: argparse.Namespace):
                          resume=args.resume, threads=args.threads, chunk_blocks=args.chunk_blocks, dask=args.dask,
                          checkpoint_every_s=args.checkpoint_every)
     executor = None
+    locks = contextlib.ExitStack()  # the output's writer lock (io/lock.py), held to the end of the run
     try:
-        plan = plan_run(request)
+        plan = plan_run(request, locks)
+        if plan.lock_note:
+            _say(plan.lock_note)
         if plan.removed:
             _say(f"removed {len(plan.removed)} stale temporary file(s) of interrupted writes: "
                  f"{', '.join(p.name for p in plan.removed)}")
@@ -113,8 +118,11 @@ def simulate(args: argparse.Namespace):
     except PlanError as exc:  # a refusal of an overridden field names the flag (--device)
         raise BadInput(name_the_flag(str(exc), budget_overrides(args))) from None
     finally:
-        if executor is not None:
-            executor.close()
+        try:
+            if executor is not None:
+                executor.close()
+        finally:
+            locks.close()
     return (EXIT_INTERRUPTED, None) if table is None else (EXIT_OK, (plan, table))
 
 

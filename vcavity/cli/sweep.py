@@ -8,6 +8,7 @@ continues).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
 from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, error, first_line, written
@@ -86,11 +87,19 @@ def command(args: argparse.Namespace) -> int:
             check_dask_work(point.config, args.dask)
     except PlanError as exc:
         return error(name_the_flag(str(exc), overrides))
-    try:
-        output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
-                                                   resume=args.resume, threads=args.threads)
-    except (sweep_mod.SweepError, PreflightError, PlanError) as exc:
-        return error(str(exc))
+    # the output's writer lock, held to the end of the command (io/lock.py): a second
+    # sweep or run into the same file is refused in plan_output, before it reads or writes
+    with contextlib.ExitStack() as locks:
+        try:
+            output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
+                                                       resume=args.resume, threads=args.threads, locks=locks)
+        except (sweep_mod.SweepError, PreflightError, PlanError) as exc:
+            return error(str(exc))
+        return _locked(args, spec, output, data, note, overrides)
+
+
+def _locked(args, spec, output, data, note, overrides) -> int:
+    """The sweep once its output is locked: connect, trace, write, report."""
     if note:
         print(f"vcavity: {note}", file=sys.stderr)
     executor = None
