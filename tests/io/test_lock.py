@@ -9,7 +9,6 @@ hand in the documented format. Nothing here is statistical.
 
 import json
 import os
-import signal
 import socket
 import subprocess
 import sys

@@ -35,7 +35,8 @@ def add_parser(subparsers) -> None:
     add_run_flags(run, NAME)
     run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
                      help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
-                     "saves it too and exits 130; removed once the table is written")
+                     "saves it too and exits 130; removed once the table is written. While the run lasts it holds "
+                     "OUT.h5.lock: a second run or sweep writing OUT.h5 is refused")
 
 
 def command(args: argparse.Namespace) -> int:

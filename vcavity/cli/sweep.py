@@ -44,7 +44,8 @@ and --resume continues a sweep only with the same ones.
 output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
 readable with xarray.open_dataset(OUT, engine="h5netcdf"); created when the first point
 finishes, then each point written in place (its values, a checksum, its done flag last),
-so an interrupted sweep keeps its finished points: continue it with --resume.
+so an interrupted sweep keeps its finished points: continue it with --resume. While it
+runs it holds OUT.h5.lock: a second sweep or run into OUT.h5 is refused (exit status 2).
 docs/sweeps.md; examples: runs/sweep_roughness_eta.toml, runs/sweep_gold_rgb.toml
 """
 
