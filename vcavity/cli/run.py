@@ -96,7 +96,7 @@ def simulate(args: argparse.Namespace):
     request = RunRequest(read_config(args), config_file=args.config, output=args.output, overwrite=args.overwrite,
                          resume=args.resume, threads=args.threads, chunk_blocks=args.chunk_blocks, dask=args.dask,
                          checkpoint_every_s=args.checkpoint_every)
-    executor = None
+    executor = progress = None
     locks = contextlib.ExitStack()  # the output's writer lock (io/lock.py), held to the end of the run
     try:
         plan = plan_run(request, locks)
@@ -119,6 +119,8 @@ def simulate(args: argparse.Namespace):
     except PlanError as exc:  # a refusal of an overridden field names the flag (--device)
         raise BadInput(name_the_flag(str(exc), budget_overrides(args))) from None
     finally:
+        if progress is not None:
+            progress.close()  # before the error's line (a failed checkpoint): no bar fragment on it
         try:
             if executor is not None:
                 executor.close()

@@ -215,9 +215,15 @@ def _attach(output, data: SweepData) -> PointWriter | None:
         raise OSError(f"{output} changed since it was read ({exc}); it was not replaced") from None
 
 
+def traces(sweep: Sweep) -> bool:
+    """Whether any point of ``sweep`` traces paths (not so with the exact estimator: its
+    tables are the model's, and a sweep's progress is then counted in points)."""
+    return any(estimators.get(p.config.estimator).walk(p.config.material) is not None for p in sweep.points)
+
+
 def paths_done(sweep: Sweep, data: SweepData) -> int:
     """Paths of the points already done (where a progress bar starts)."""
     return sum(sweep.point_paths(p) for p in sweep.points if data.data["done"][p.index])
 
 
-__all__ = ["paths_done", "plan_output", "record", "resume_data", "run", "sweep_bytes"]
+__all__ = ["paths_done", "plan_output", "record", "resume_data", "run", "sweep_bytes", "traces"]
