@@ -86,6 +86,7 @@ def test_a_second_sweep_into_the_same_file_is_refused_and_the_first_completes(tm
         before = _sha(out)
         _refused(tmp_path, first, "sweep", "s.toml", "-o", "two.h5", "--seed", "12", "--overwrite")
         _refused(tmp_path, first, "sweep", "s.toml", "-o", "two.h5", "--resume")
+        _refused(tmp_path, first, "sweep", "s.toml", "-o", "two.h5", "--overwrite", "--dask", "local:1")
         assert _sha(out) == before
     finally:
         os.kill(first.pid, signal.SIGCONT)
