@@ -6,8 +6,9 @@ a :class:`RunPlan`, or raises :class:`PlanError` with one line naming the flag o
 the user wrote it, the value and what is accepted: the output path (links, folders,
 FIFOs, the config itself, an existing file without ``--overwrite``, a folder that does not
 exist or takes no file), the output's writer lock (another run or sweep writing it:
-:mod:`vcavity.io.lock`), the checkpoint (resumed, refused, or another run's), the threads, the Dask address's form, the device (:func:`check_device`), the estimator's own
-refusals (a model's table has nothing to distribute), the memory and the disk space. A
+:mod:`vcavity.io.lock`), the checkpoint (resumed, refused, or another run's), the threads,
+the Dask address's form, the device (:func:`check_device`), the estimator's own refusals
+(a model's table has nothing to distribute), the memory and the disk space. A
 sweep makes the same checks of its points (:mod:`vcavity.sweep.run`, ``vcavity sweep``):
 :func:`check_threads`, :func:`check_dask_address`, :func:`check_device`,
 :func:`check_dask_work`.
