@@ -35,7 +35,8 @@ def add_parser(subparsers) -> None:
     add_run_flags(run, NAME)
     run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
                      help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
-                     "saves it too and exits 130; removed once the table is written")
+                     "saves it too and exits 130; removed once the table is written. While the run lasts it holds "
+                     "OUT.h5.lock: a second run or sweep writing OUT.h5 is refused")
 
 
 def command(args: argparse.Namespace) -> int:
@@ -87,15 +88,20 @@ def simulate(args: argparse.Namespace):
     BadInput
         The first check that failed, as its one-line error.
     """
+    import contextlib
+
     from vcavity.simulate import service
     from vcavity.simulate.plan import PlanError, RunRequest, plan_run
 
     request = RunRequest(read_config(args), config_file=args.config, output=args.output, overwrite=args.overwrite,
                          resume=args.resume, threads=args.threads, chunk_blocks=args.chunk_blocks, dask=args.dask,
                          checkpoint_every_s=args.checkpoint_every)
-    executor = None
+    executor = progress = None
+    locks = contextlib.ExitStack()  # the output's writer lock (io/lock.py), held to the end of the run
     try:
-        plan = plan_run(request)
+        plan = plan_run(request, locks)
+        if plan.lock_note:
+            _say(plan.lock_note)
         if plan.removed:
             _say(f"removed {len(plan.removed)} stale temporary file(s) of interrupted writes: "
                  f"{', '.join(p.name for p in plan.removed)}")
@@ -113,8 +119,13 @@ def simulate(args: argparse.Namespace):
     except PlanError as exc:  # a refusal of an overridden field names the flag (--device)
         raise BadInput(name_the_flag(str(exc), budget_overrides(args))) from None
     finally:
-        if executor is not None:
-            executor.close()
+        if progress is not None:
+            progress.close()  # before the error's line (a failed checkpoint): no bar fragment on it
+        try:
+            if executor is not None:
+                executor.close()
+        finally:
+            locks.close()
     return (EXIT_INTERRUPTED, None) if table is None else (EXIT_OK, (plan, table))
 
 

@@ -74,13 +74,15 @@ class ProgressBar:
         Paths planned and already done (a resumed run, a sweep's finished points).
     label : str
         The bar's description (``"tracing"``, ``"sweeping"``).
+    unit : str, default "path"
+        What it counts (``"point"``: a sweep whose estimator traces no path).
     """
 
-    def __init__(self, total: int, initial: int, label: str):
+    def __init__(self, total: int, initial: int, label: str, unit: str = "path"):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=total, initial=initial, unit="path", unit_scale=True, dynamic_ncols=True, desc=label,
-                        file=sys.stderr)
+        self.bar = tqdm(total=total, initial=initial, unit=unit, unit_scale=unit == "path", dynamic_ncols=True,
+                        desc=label, file=sys.stderr)
 
     def advance(self, paths: int, error: float) -> None:
         """``paths`` more traced; ``error`` shown unless NaN (no target)."""

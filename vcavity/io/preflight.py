@@ -15,7 +15,7 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from vcavity.io import atomic
+from vcavity.io import atomic, lock
 
 _MB = 1024.0**2
 _TABLE_OVERHEAD_BYTES = 1 << 20  # HDF5 metadata, attributes, the config JSON: well under 1 MB
@@ -161,6 +161,31 @@ def probe_output(out: Output) -> list[Path]:
         raise out.fail(f"cannot create a file in folder {str(out.path.parent)!r} "
                        f"({exc.strerror or exc})") from None
     return removed
+
+
+def lock_output(out: Output, locks) -> lock.WriterLock:
+    """Hold the writer lock of ``out`` (:mod:`vcavity.io.lock`) until ``locks`` closes.
+
+    Parameters
+    ----------
+    out : Output
+    locks : contextlib.ExitStack
+        Releases the lock when it closes (the command's end: success, error or Ctrl-C).
+
+    Returns
+    -------
+    vcavity.io.lock.WriterLock
+        The lock held (its ``took_over`` names a stale holder it replaced).
+
+    Raises
+    ------
+    PreflightError
+        Another writer holds it, or the folder cannot hold it (one line naming ``out.field``).
+    """
+    try:
+        return locks.enter_context(lock.WriterLock(out.path))
+    except lock.LockError as exc:
+        raise out.fail(str(exc)) from None
 
 
 def table_bytes(n_incidence: int, n_orders: int, n_cells: int) -> int:

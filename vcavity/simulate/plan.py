@@ -5,9 +5,10 @@ options); :func:`plan_run` checks it against the machine and the file system and
 a :class:`RunPlan`, or raises :class:`PlanError` with one line naming the flag or field as
 the user wrote it, the value and what is accepted: the output path (links, folders,
 FIFOs, the config itself, an existing file without ``--overwrite``, a folder that does not
-exist or takes no file), the checkpoint (resumed, refused, or another run's), the
-threads, the Dask address's form, the device (:func:`check_device`), the estimator's own
-refusals (a model's table has nothing to distribute), the memory and the disk space. A
+exist or takes no file), the output's writer lock (another run or sweep writing it:
+:mod:`vcavity.io.lock`), the checkpoint (resumed, refused, or another run's), the threads,
+the Dask address's form, the device (:func:`check_device`), the estimator's own refusals
+(a model's table has nothing to distribute), the memory and the disk space. A
 sweep makes the same checks of its points (:mod:`vcavity.sweep.run`, ``vcavity sweep``):
 :func:`check_threads`, :func:`check_dask_address`, :func:`check_device`,
 :func:`check_dask_work`.
@@ -87,6 +88,8 @@ class RunPlan:
         Stale temporary files of interrupted writes, removed from the output's folder.
     resume_note : str or None
         What ``--resume`` found (no checkpoint yet, or how far the run got).
+    lock_note : str or None
+        The stale writer lock of a gone process that this run took over, if any.
     """
 
     request: RunRequest
@@ -96,6 +99,7 @@ class RunPlan:
     state: run_state.RunState | None = None
     removed: tuple[Path, ...] = ()
     resume_note: str | None = None
+    lock_note: str | None = None
 
     @property
     def traces(self) -> bool:
@@ -207,8 +211,13 @@ def check_dask_work(config: RunConfig, dask: str | None) -> None:
                         "nothing to distribute")
 
 
-def plan_run(request: RunRequest) -> RunPlan:
+def plan_run(request: RunRequest, locks=None) -> RunPlan:
     """Every check of a run, in the order a user fixes them (module doc).
+
+    With ``locks`` (a :class:`contextlib.ExitStack`) the output's writer lock
+    (:mod:`vcavity.io.lock`: ``OUT.h5.lock``, covering the table and its checkpoint) is
+    taken once the path is known to be a possible output, before the checkpoint is read,
+    and held until ``locks`` closes: a second run or sweep writing the same file is refused.
 
     Raises
     ------
@@ -218,8 +227,10 @@ def plan_run(request: RunRequest) -> RunPlan:
     cfg = request.config
     try:
         out = preflight.resolve_output(request.output, cfg.output, request.config_file)
+        preflight.check_output(out, request.config_file, True)  # links, folders, FIFOs, the config itself
+        held = preflight.lock_output(out, locks) if locks is not None else None
         resuming = request.resume and checkpoint.checkpoint_path(out.path).exists()
-        preflight.check_output(out, request.config_file, request.overwrite or resuming)
+        preflight.check_output(out, request.config_file, request.overwrite or resuming)  # and an existing table
         # without --overwrite, resume replaces only its own run's table (say, written just
         # before a kill that left the checkpoint): never what was put there meanwhile
         what = (checkpoint.foreign_output(out.path, cfg.to_dict()) if resuming and not request.overwrite
@@ -241,7 +252,7 @@ def plan_run(request: RunRequest) -> RunPlan:
     config = dataclasses.replace(cfg, output=out.path.resolve())  # the table records where it was written
     state, note = _start(request, config, out.path, n_cells)
     return RunPlan(request=request, config=config, output=out, threads=threads, state=state,
-                   removed=tuple(removed), resume_note=note)
+                   removed=tuple(removed), resume_note=note, lock_note=held.note() if held is not None else None)
 
 
 def _start(request: RunRequest, config: RunConfig, output: Path, n_cells: int):
