@@ -65,7 +65,8 @@ def command(args: argparse.Namespace) -> int:
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
-    from vcavity.simulate.plan import PlanError, check_dask_address, check_dask_work, check_device
+    from vcavity.simulate.plan import (PlanError, check_dask_address, check_dask_work, check_device,
+                                       check_device_memory)
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -84,6 +85,7 @@ def command(args: argparse.Namespace) -> int:
         for point in spec.points:  # the device's and Dask's refusals, before the file is touched
             check_device(point.config, args.dask)
             check_dask_work(point.config, args.dask)
+            check_device_memory(point.config, point.config.sensor_resolution ** 2, args.dask)
     except PlanError as exc:
         return error(name_the_flag(str(exc), overrides))
     try:

@@ -227,6 +227,20 @@ def device_attributes() -> dict:
             "cuda_runtime_version": ".".join(map(str, cuda.runtime.get_version()))}
 
 
+def launch_bytes(max_order: int, n_cells: int) -> int:
+    """GPU memory one launch allocates: the tally ``[max_order + 1, n_cells]`` and the
+    statistics, int64, with the parameter arrays (a few hundred bytes) rounded in."""
+    return 8 * ((int(max_order) + 1) * int(n_cells) + N_STATS) + 4096
+
+
+def free_memory() -> int | None:
+    """Free memory of the current GPU, bytes (None under the simulator, which has no device)."""
+    if SIMULATED:
+        return None
+    free, _total = cuda.current_context().get_memory_info()
+    return int(free)
+
+
 def _positive(value, name: str, most: int = 2 ** 31 - 1) -> int:
     """``value`` as an int in ``[1, most]``, or a one-line ValueError."""
     if isinstance(value, bool) or int(value) != value or not 1 <= value <= most:
@@ -299,4 +313,5 @@ def ptx(walk_kind: int, dist_kind: int, facet_kind: int, facet_variant: int, cc:
     return text
 
 
-__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "device_attributes", "ptx"]
+__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "device_attributes",
+           "free_memory", "launch_bytes", "ptx"]
