@@ -44,7 +44,8 @@ def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
     resolution = attrs.get("sensor_resolution")
     lines.append(f"points: {sweep.n_done()} of {n_points} done ({math.prod(sweep.shape):,} grid positions); "
                  f"sweep seed {attrs.get('seed')}, estimator {attrs.get('estimator')}, sensor "
-                 f"{resolution}x{resolution}, orders {', '.join(order_name(int(k)) for k in sweep.order)}")
+                 f"{resolution}x{resolution}, orders {', '.join(order_name(int(k)) for k in sweep.order)}; "
+                 f"device {sweep.device}")
     if sweep.rejected:  # marked done, but their bytes do not match their checksum
         lines.append(f"{len(sweep.rejected)} point(s) marked done fail their checksum (a write cut short or "
                      "changed bytes): read as pending; sweep --resume runs them again")
