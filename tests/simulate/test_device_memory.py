@@ -32,8 +32,12 @@ THREADS = 64
 def cuda_here(monkeypatch):
     """This process as if it could run CUDA, with no device memory to check (numba-cuda
     not needed: the CUDA loop is a stand-in)."""
+    import vcavity.kernels
+
+    stand_in = SimpleNamespace(free_memory=lambda: None)
     monkeypatch.setattr(plan, "cuda_unavailable", lambda: None)
-    monkeypatch.setitem(sys.modules, "vcavity.kernels.cuda_loop", SimpleNamespace(free_memory=lambda: None))
+    monkeypatch.setitem(sys.modules, "vcavity.kernels.cuda_loop", stand_in)
+    monkeypatch.setattr(vcavity.kernels, "cuda_loop", stand_in, raising=False)  # (imported by an earlier test)
     monkeypatch.setattr(numba.config, "NUMBA_NUM_THREADS", THREADS)  # --threads 64 is accepted
 
 

@@ -98,11 +98,18 @@ def command(args: argparse.Namespace) -> int:
     executor = None
     if args.dask is not None:
         from vcavity.simulate.dask import DaskExecutor
+        from vcavity.simulate.service import check_workers
 
+        first = spec.points[0].config  # (the device is every point's: part of the digest)
         try:
-            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
+            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1, device=first.device)
         except (ImportError, ValueError, OSError) as exc:  # OSError: no scheduler answers (a timeout)
             return error(f"--dask = {args.dask!r}: cannot use it ({first_line(exc)})")
+        try:
+            check_workers(executor, first, args.dask)  # CUDA: each worker has numba-cuda and a GPU
+        except PlanError as exc:
+            executor.close()
+            return error(name_the_flag(str(exc), overrides))
     n_points = len(spec.points)
     total = sum(spec.point_paths(p) for p in spec.points)
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "

@@ -150,22 +150,19 @@ def cuda_unavailable() -> str | None:
     str or None
         One phrase: numba-cuda is not installed, or no CUDA device or driver is found.
     """
-    try:
-        from vcavity.kernels import cuda_loop
-    except ImportError:
-        return "numba-cuda is not installed: pip install 'vcavity[cuda]'"
-    if cuda_loop.SIMULATED or cuda_loop.cuda.is_available():
-        return None
-    return ("numba-cuda finds no CUDA device or driver here (numba.cuda.is_available() is False; "
-            "the kernels need an NVIDIA GPU with a CUDA 13 driver)")
+    from vcavity.kernels import walks
+
+    return walks.cuda_unavailable()
 
 
 def check_device(config: RunConfig, dask: str | None = None) -> None:
     """Whether the run's walk can run on ``config.device``, before anything compiles.
 
     The CPU always can. CUDA refuses, in this order: an estimator that traces no path, a
-    weighted walk (the paper estimator's), ``--dask``, numba-cuda not installed, and no
-    CUDA device or driver (:func:`cuda_unavailable`).
+    weighted walk (the paper estimator's), numba-cuda not installed, and no CUDA device or
+    driver (:func:`cuda_unavailable`). With ``--dask`` the walk runs on the workers' GPUs,
+    not here: the last two are asked of every worker once connected
+    (:func:`vcavity.simulate.service.check_workers`).
 
     Raises
     ------
@@ -186,9 +183,8 @@ def check_device(config: RunConfig, dask: str | None = None) -> None:
         unweighted = ", ".join(m.NAME for m in walks.MODULES if not m.WEIGHTED)
         raise PlanError(f"{field}: the {config.estimator} estimator runs on the CPU only: its walk is weighted "
                         f"(the GPU runs the unweighted walks: {unweighted})")
-    if dask is not None:
-        raise PlanError(f"{field}: GPUs with Dask (--dask) are not supported yet; run without --dask, or on the "
-                        "CPU")
+    if dask is not None:  # the workers' GPUs run the walk (asked once connected)
+        return
     reason = cuda_unavailable()
     if reason is not None:
         raise PlanError(f"{field}: {reason}")
