@@ -8,6 +8,8 @@
 - ``DaskExecutor.check_cuda`` against a stand-in client: the first worker that cannot,
   and the workers' GPUs joined for the table.
 - A run whose executor's workers have GPUs compiles nothing here and records their GPUs.
+- ``local:N`` on CUDA: one worker per GPU, each seeing its own (``CUDA_VISIBLE_DEVICES``;
+  the workers' environment checked, no GPU needed); more workers than GPUs is refused.
 - Under numba's CUDA simulator (child processes: numba reads ``NUMBA_ENABLE_CUDASIM`` at
   import; the ``local:2`` workers inherit it), ``run --device cuda --dask local:2`` writes
   the table of ``run --device cuda`` bit for bit (units of one block, merged in order).
@@ -155,3 +157,30 @@ def test_a_gpu_run_on_a_dask_worker_writes_the_local_gpu_table(tmp_path):
     for field in FIELDS:
         np.testing.assert_array_equal(getattr(dask, field), getattr(local, field), err_msg=field)
     assert dask.attrs["device_name"] == local.attrs["device_name"] != "simulator"
+
+
+def test_a_local_gpu_cluster_gives_each_worker_its_own_gpu():
+    """``local:N`` on CUDA: worker k sees only the k-th GPU (``CUDA_VISIBLE_DEVICES``); no GPU
+    is needed to check the environment the workers start with."""
+    from vcavity.simulate.dask import _gpu_cluster
+
+    cluster = _gpu_cluster(["3", "5"], threads_per_worker=1, processes=True, dashboard_address=None,
+                           scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                           env={"NUMBA_NUM_THREADS": "1"})
+    try:
+        with distributed.Client(cluster) as client:
+            client.wait_for_workers(2)
+            assert sorted(client.run(os.getenv, "CUDA_VISIBLE_DEVICES").values()) == ["3", "5"]
+            assert list(client.run(os.getenv, "NUMBA_NUM_THREADS").values()) == ["1", "1"]  # the other variables kept
+            assert set(client.nthreads().values()) == {1}
+    finally:
+        cluster.close()
+
+
+def test_more_local_workers_than_gpus_is_refused(monkeypatch):
+    from vcavity.simulate import dask
+
+    monkeypatch.setattr(dask, "_local_gpus", lambda: ["0"])
+    with pytest.raises(ValueError, match=r"^with simulation.device = 'cuda', local:N starts one worker per GPU: N "
+                                         r"must be from 1 to 1 \(the GPUs here\)$"):
+        dask.DaskExecutor("local:2", device="cuda")
