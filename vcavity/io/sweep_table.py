@@ -146,22 +146,6 @@ class SweepData:
         """Sizes of the point axes."""
         return tuple(len(a.values) for a in self.axes if a.name in self.point_axes)
 
-    @property
-    def device(self) -> str:
-        """Where the sweep's walks ran: ``"cpu"`` or ``"cuda"`` (the root attribute ``device``;
-        a file written before it: ``simulation.device`` of its overrides or spec, else ``"cpu"``)."""
-        if "device" in self.attrs:
-            return str(self.attrs["device"])
-        try:
-            overrides = json.loads(self.attrs.get("overrides") or "{}")
-            spec = json.loads(self.attrs.get("spec") or "{}")
-        except ValueError:
-            return "cpu"
-        base = spec.get("base") if isinstance(spec, dict) else None  # the sweep file's tables
-        simulation = base.get("simulation") if isinstance(base, dict) else None
-        written = simulation.get("device") if isinstance(simulation, dict) else None
-        return str(overrides.get("simulation.device", written or "cpu"))
-
     def dims(self, name: str) -> tuple[str, ...]:
         """Dimension names of variable ``name``."""
         kind = VARIABLES[name][0]
