@@ -100,6 +100,9 @@ def simulate(args: argparse.Namespace):
     locks = contextlib.ExitStack()  # the output's writer lock (io/lock.py), held to the end of the run
     try:
         plan = plan_run(request, locks)
+        # connected first: a scheduler that does not answer, or workers that cannot run the
+        # device (CUDA), are refused in one line before anything else is said or compiled
+        executor = service.connect(args.dask, plan.config) if args.dask else None
         if plan.lock_note:
             _say(plan.lock_note)
         if plan.removed:
@@ -107,12 +110,13 @@ def simulate(args: argparse.Namespace):
                  f"{', '.join(p.name for p in plan.removed)}")
         cfg = plan.config
         work = f"{plan.total_paths:,} paths" if plan.traces else f"no path ({cfg.estimator} estimator)"
-        where = "on the CUDA device" if cfg.device == "cuda" else f"{plan.threads} thread(s)"  # --threads: the CPU's
+        where = f"{plan.threads} thread(s)"  # --threads: the CPU's
+        if cfg.device == "cuda":
+            where = "on the Dask workers' GPUs" if args.dask else "on the CUDA device"
         _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {where}")
         if plan.resume_note:
             _say(plan.resume_note)
         simulation = service.prepare(plan, _say)
-        executor = service.connect(args.dask) if args.dask else None
         done = int(plan.state.paths_done(cfg).sum()) if plan.state is not None else 0
         progress = None if args.quiet or not plan.traces else ProgressBar(plan.total_paths, done, "tracing")
         table = service.execute(plan, simulation, _say, progress, executor)

@@ -67,7 +67,8 @@ def command(args: argparse.Namespace) -> int:
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
-    from vcavity.simulate.plan import PlanError, check_dask_address, check_dask_work, check_device
+    from vcavity.simulate.plan import (PlanError, check_dask_address, check_dask_work, check_device,
+                                       check_device_memory)
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -86,6 +87,7 @@ def command(args: argparse.Namespace) -> int:
         for point in spec.points:  # the device's and Dask's refusals, before the file is touched
             check_device(point.config, args.dask)
             check_dask_work(point.config, args.dask)
+            check_device_memory(point.config, point.config.sensor_resolution ** 2, args.dask)
     except PlanError as exc:
         return error(name_the_flag(str(exc), overrides))
     # the output's writer lock, held to the end of the command (io/lock.py): a second
@@ -106,11 +108,19 @@ def _locked(args, spec, output, data, note, overrides) -> int:
     executor = None
     if args.dask is not None:
         from vcavity.simulate.dask import DaskExecutor
+        from vcavity.simulate.plan import PlanError
+        from vcavity.simulate.service import check_workers
 
+        first = spec.points[0].config  # (the device is every point's: part of the digest)
         try:
-            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
+            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1, device=first.device)
         except (ImportError, ValueError, OSError) as exc:  # OSError: no scheduler answers (a timeout)
             return error(f"--dask = {args.dask!r}: cannot use it ({first_line(exc)})")
+        try:
+            check_workers(executor, first, args.dask)  # CUDA: each worker has numba-cuda and a GPU
+        except PlanError as exc:
+            executor.close()
+            return error(name_the_flag(str(exc), overrides))
     from vcavity.sweep import run as sweep_run
 
     n_points = len(spec.points)

@@ -133,7 +133,7 @@ def add_budget_flags(parser: argparse.ArgumentParser) -> None:
     # the choices spelled here, not read from vcavity.config: --help loads no registry
     parser.add_argument("--device", choices=("cpu", "cuda"),
                         help="where the walk runs: cpu (default), or cuda: an NVIDIA GPU (needs vcavity[cuda]; "
-                        "the unweighted walks only, no --dask; tables agree with the CPU's in distribution, "
+                        "the unweighted walks only; with --dask, one worker per GPU; tables agree with the CPU's in distribution, "
                         "not bit for bit: docs/gpu.md) (overrides simulation.device)")
 
 

@@ -1,7 +1,8 @@
 """``vcavity warmup``: compile kernel variants into the cache ahead of the runs that need them.
 
-Exit status: 0 every named variant ready; 2 an unknown name or no writable cache (one
-line); 130 interrupted (the variants finished so far stay cached).
+Exit status: 0 every named variant ready; 2 an unknown name, no writable cache, or
+``--device cuda`` without numba-cuda or a GPU (one line); 130 interrupted (the variants
+finished so far stay cached).
 """
 
 from __future__ import annotations
@@ -30,14 +31,20 @@ The cache is NUMBA_CACHE_DIR when set, else ~/.cache/vcavity/<version>/numba (th
 XDG_CACHE_HOME rule; the summary line prints the folder). Running warmup again loads what
 is cached and compiles only what is missing or stale (after an upgrade); several warmups
 at once, on one machine or on nodes sharing the folder, leave a working cache (each
-compile is written atomically). Ctrl-C keeps the variants finished so far."""
+compile is written atomically). Ctrl-C keeps the variants finished so far.
+
+--device cuda compiles the variants' CUDA kernels instead (numba-cuda and a GPU needed,
+docs/gpu.md), into the same cache, for the GPU model of this machine: run it on each
+machine whose GPUs run the walks (each Dask worker's, docs/distributed.md). The paper
+estimator's weighted walk has no CUDA kernel and is no variant here."""
 
 EPILOG = """\
 examples:
   vcavity warmup --distribution beckmann --facet interfaced_lambertian   # the default run: 3 IL variants
   vcavity warmup --distribution ggx beckmann --microsurface smith
   vcavity warmup --all --list                                           # what --all would compile
-  NUMBA_CACHE_DIR=/shared/nc vcavity warmup --all                       # a cluster image or shared cache"""
+  NUMBA_CACHE_DIR=/shared/nc vcavity warmup --all                       # a cluster image or shared cache
+  vcavity warmup --all --device cuda                                    # the GPU kernels (on a GPU machine)"""
 
 
 def add_parser(subparsers) -> None:
@@ -51,6 +58,8 @@ def add_parser(subparsers) -> None:
                         "(default: all)")
     warmup.add_argument("--microsurface", nargs="+", metavar="M", help="walks: v-cavity, smith (default: v-cavity)")
     warmup.add_argument("--all", action="store_true", help="every variant of every walk")
+    warmup.add_argument("--device", choices=("cpu", "cuda"), default="cpu",
+                        help="compile the CPU's kernels (default) or the CUDA kernels (a GPU needed)")
     warmup.add_argument("--list", action="store_true", help="print the selected variants and compile nothing")
     warmup.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -95,6 +104,12 @@ def command(args: argparse.Namespace) -> int:
     from vcavity._numba.jit import CACHE_ENABLED, CACHE_LOCATION, NAMED_CACHE_REFUSED
     from vcavity.simulate.warmup import compile_variant
 
+    if args.device == "cuda":  # before the cache's refusals: without a GPU nothing is compiled anyway
+        from vcavity.simulate.plan import cuda_unavailable
+
+        reason = cuda_unavailable()
+        if reason is not None:
+            return error(f"--device = 'cuda': {reason}")
     if NAMED_CACHE_REFUSED:  # filling another folder would leave the named one cold
         return error(f"{NAMED_CACHE_REFUSED}; warmup fills the cache that runs with this NUMBA_CACHE_DIR "
                      "read: name a writable folder, or unset it for the per-user cache")
@@ -106,13 +121,25 @@ def command(args: argparse.Namespace) -> int:
     try:
         for variant in bar:
             bar.set_description(f"compiling {variant.label}")
-            _, from_cache = compile_variant(variant)
+            _, from_cache = compile_variant(variant, args.device)
             loaded += from_cache
             compiled += not from_cache
     except KeyboardInterrupt:
         bar.close()
         raise Interrupted(f"{compiled + loaded} of {len(selected)} variant(s) ready in {CACHE_LOCATION}") from None
     bar.close()
-    print(f"vcavity: {len(selected)} variant(s) ready in {time.perf_counter() - start:.1f} s ({compiled} compiled, "
+    if args.device == "cuda" and _simulated():
+        print(f"vcavity: {len(selected)} variant(s) run under numba's CUDA simulator in "
+              f"{time.perf_counter() - start:.1f} s: it compiles and caches nothing", file=sys.stderr)
+        return EXIT_OK
+    kind = "CUDA kernel(s) of the variant(s)" if args.device == "cuda" else "variant(s)"
+    print(f"vcavity: {len(selected)} {kind} ready in {time.perf_counter() - start:.1f} s ({compiled} compiled, "
           f"{loaded} loaded from the cache) in {CACHE_LOCATION}", file=sys.stderr)
     return EXIT_OK
+
+
+def _simulated() -> bool:
+    """Whether the CUDA kernels ran under numba's simulator (``NUMBA_ENABLE_CUDASIM=1``)."""
+    from vcavity.kernels import cuda_loop
+
+    return cuda_loop.SIMULATED

@@ -267,7 +267,9 @@ def check_memory(config, threads: int, n_cells: int, tallies: int = 1) -> int:
     ----------
     config : vcavity.config.RunConfig
     threads : int
-        Threads the run uses (one tally per kernel slot, a slot per thread).
+        Threads the run uses (one tally per kernel slot, a slot per thread). On
+        ``config.device = "cuda"`` not counted: the host gets one tally set per kernel call
+        (the GPU's own memory is checked where the device is, vcavity.simulate.plan).
     n_cells : int
         Sensor cells (``sensor_resolution`` squared).
     tallies : int
@@ -278,16 +280,18 @@ def check_memory(config, threads: int, n_cells: int, tallies: int = 1) -> int:
     PreflightError
         Naming ``simulation.sensor_resolution`` and ``max_order``, with the figure.
     """
+    gpu = getattr(config, "device", "cpu") == "cuda"
     needed = run_memory_bytes(len(config.incidence), len(config.orders), config.max_order, n_cells,
-                              threads, tallies)
+                              1 if gpu else threads, tallies)
     available = available_memory()
     if available is not None and needed > available:
+        slots = "the GPU's tally" if gpu else f"{threads} thread(s)"
         raise PreflightError(
             f"simulation.sensor_resolution = {config.sensor_resolution} with max_order = "
             f"{config.max_order}: the run needs about {_size(needed)} of memory "
-            f"({threads} thread(s) x {config.max_order + 1} orders x {n_cells:,} cells per tally, "
+            f"({slots} x {config.max_order + 1} orders x {n_cells:,} cells per tally, "
             f"{len(config.incidence)} direction(s)), {_size(available)} available; "
-            "accepted: a run that fits (lower sensor_resolution, max_order or --threads)")
+            f"accepted: a run that fits (lower sensor_resolution, max_order{'' if gpu else ' or --threads'})")
     return needed
 
 

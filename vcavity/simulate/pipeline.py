@@ -126,6 +126,7 @@ class Simulation:
                                  f"{walk_name!r} does not give")
         self.compile_time_s = 0.0
         self.last_state: RunState | None = None  # the state of the last finished run
+        self.workers_device: dict | None = None  # a cluster's GPUs ran the walk: what the table records of them
 
     @property
     def kernel(self):
@@ -227,7 +228,9 @@ class Simulation:
             execute them here, one after the other.
         """
         run_units = executor if executor is not None else _execute_here
-        if self.compile_time_s == 0.0:
+        # an executor whose workers' GPUs run the walk (DaskExecutor.check_cuda): compiled there
+        self.workers_device = getattr(executor, "device_attributes", None)
+        if self.compile_time_s == 0.0 and self.workers_device is None:
             self.compile()
         self.prepare_models()
         numba.set_num_threads(self.threads)
@@ -326,7 +329,7 @@ class Simulation:
             reached = state.reached.copy() if self.walk is not None else self.models.reached()
         compute_time_s = state.compute_time_s if self.walk is not None else self.model_time_s
         # a model's table is computed on the CPU, whatever the config's device
-        device = self.walk.device_attributes() if self.walk is not None else {"device": "cpu"}
+        device = {"device": "cpu"} if self.walk is None else self.workers_device or self.walk.device_attributes()
         return tabulate(self.config, self.sensor, self.estimator, state.tally, state.stats, paths, self.models,
                         reached, compute_time_s=compute_time_s, compile_time_s=self.compile_time_s,
                         block_size=BLOCK_SIZE, device=device)

@@ -118,8 +118,9 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
     first = sweep.points[0].config
     n_cells = first.sensor_resolution ** 2
     tallies = len(estimators.get(first.estimator).TALLIES)
-    needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(
-        sweep.n_directions, len(first.orders), first.max_order, n_cells, threads, tallies)
+    needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(  # on CUDA one tally set, not one per thread
+        sweep.n_directions, len(first.orders), first.max_order, n_cells, 1 if first.device == "cuda" else threads,
+        tallies)
     available = preflight.available_memory()
     if available is not None and needed > available:
         raise preflight.PreflightError(
