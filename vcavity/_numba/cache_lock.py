@@ -14,12 +14,22 @@ analytic functions specialised per kind with ``literally`` share one index per f
 ``<index>.lock``, for index files inside vcavity's own cache folder only (other packages'
 caches are left as Numba writes them). Where ``flock`` is unavailable (not POSIX) or the
 lock file cannot be opened, Numba's own behaviour stands.
+
+A save that the disk refuses (full, over quota, read-only, no permission: :data:`REFUSED`)
+does not end the process with Numba's traceback: the code just compiled runs from memory,
+the failure is said once per process in one line on stderr (the folder, the reason, what to
+do) and recorded in :data:`SAVE_FAILURES` (``vcavity warmup``, whose work is the saving,
+turns it into an error). Numba writes each index and data file through a temporary file
+and a rename, so a failed save leaves no half-written file: the next process compiles
+again where this one could not save.
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
+import sys
 
 try:
     import fcntl
@@ -27,6 +37,44 @@ except ImportError:  # not POSIX: no lock
     fcntl = None
 
 from numba.core import caching
+
+#: The errors of a disk that cannot take a save: full, over quota, read-only, refused.
+REFUSED = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM})
+#: ``(cache folder, reason)`` of each save refused in this process, in order.
+SAVE_FAILURES: list[tuple[str, str]] = []
+
+
+_held = 0  # notes_held() depth
+_deferred: list[str] = []
+
+
+@contextlib.contextmanager
+def notes_held():
+    """Say the refused-save note only after the block (a compile notice's line is open in it)."""
+    global _held
+    _held += 1
+    try:
+        yield
+    finally:
+        _held -= 1
+        if not _held:
+            for line in _deferred:
+                print(line, file=sys.stderr)
+            _deferred.clear()
+
+
+def _save_refused(folder: str, exc: OSError) -> None:
+    """Record a refused save; the first of the process is said in one line."""
+    reason = exc.strerror or type(exc).__name__
+    if not SAVE_FAILURES:
+        line = (f"vcavity: note: the Numba cache folder {folder!r} cannot take compiled code ({reason}): "
+                f"compiling in this process only, the next run compiles again (free space there, or set "
+                f"NUMBA_CACHE_DIR to a folder that can)")
+        if _held:
+            _deferred.append(line)
+        else:
+            print(line, file=sys.stderr)
+    SAVE_FAILURES.append((folder, reason))
 
 
 @contextlib.contextmanager
@@ -67,7 +115,10 @@ def install(cache_location: str, module=caching) -> bool:
         True when installed (now or by an earlier call).
     """
     index_file = getattr(module, "IndexDataCacheFile", None)
-    if fcntl is None or not cache_location or index_file is None or not hasattr(index_file, "save"):
+    if not cache_location:
+        return False
+    _guard_saves(getattr(module, "Cache", None), os.path.join(os.path.abspath(cache_location), ""))
+    if fcntl is None or index_file is None or not hasattr(index_file, "save"):
         return False
     if getattr(index_file.save, "_vcavity_locked", False):
         return True
@@ -94,4 +145,24 @@ def install(cache_location: str, module=caching) -> bool:
     return True
 
 
-__all__ = ["install"]
+def _guard_saves(cache_class, root: str) -> None:
+    """Wrap ``cache_class.save_overload`` (Numba's or numba-cuda's ``Cache``): a save under
+    ``root`` that the disk refuses (:data:`REFUSED`) is said and recorded, not raised."""
+    plain = getattr(cache_class, "save_overload", None)
+    if plain is None or getattr(plain, "_vcavity_guarded", False):
+        return
+
+    def save_overload(self, sig, data):
+        try:
+            return plain(self, sig, data)
+        except OSError as exc:
+            folder = os.path.abspath(getattr(self, "_cache_path", ""))
+            if exc.errno not in REFUSED or not os.path.join(folder, "").startswith(root):
+                raise
+            _save_refused(root.rstrip(os.sep), exc)
+
+    save_overload._vcavity_guarded = True
+    cache_class.save_overload = save_overload
+
+
+__all__ = ["REFUSED", "SAVE_FAILURES", "install", "notes_held"]
