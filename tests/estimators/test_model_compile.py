@@ -133,3 +133,33 @@ def test_a_run_without_models_keeps_a_zero_model_compile_time(tmp_path, capsys):
     assert "model compile/load" not in capsys.readouterr().out
     with h5py.File(tmp_path / "a.h5") as h5:
         assert h5.attrs["model_compile_time_s"] == 0.0
+
+
+def test_an_interrupt_while_exact_f1_refines_stops_the_run_with_every_path_kept(monkeypatch):
+    """The stop request comes once every path is traced, while the models are refined to
+    the counts (made necessary here by a tolerance factor a thousand times tighter than
+    the run's): the run stops at once with :class:`RunInterrupted` carrying the finished
+    state (the service then saves it as the checkpoint), not after the refinement."""
+    from vcavity import config as config_mod
+    from vcavity.estimators import exact_f1
+    from vcavity.simulate.pipeline import RunInterrupted, Simulation
+
+    cfg = config_mod.validate({
+        "material": {"distribution": "beckmann", "alpha": 0.6, "kd": 0.9, "eta": 1.5},
+        "incidence": {"theta_i_deg": [30.0], "paths": 40_000},
+        "simulation": {"estimator": "exact-f1", "sensor_resolution": 7}})
+    simulation = Simulation(cfg, threads=1)
+    simulation.prepare_models()
+    monkeypatch.setattr(exact_f1, "MODEL_TOLERANCE_FACTOR", 1e-4)
+    polled_while_refining = []
+
+    def stop():
+        refining = simulation.last_state is not None  # set once the last chunk is merged
+        polled_while_refining.append(refining)
+        return refining
+
+    with pytest.raises(RunInterrupted) as stopped:
+        simulation.run(should_stop=stop)
+    state = stopped.value.state
+    assert state.finished.all() and int(simulation.paths_done(state).sum()) == 40_000
+    assert polled_while_refining.count(True) == 1  # stopped at the first poll of the refinement
