@@ -1,7 +1,7 @@
 """``--device`` and ``simulation.device`` (docs/gpu.md): the walk on a GPU through numba-cuda.
 
 - Refusals: ``device = "cuda"`` with an estimator that traces no path, with a weighted walk
-  (the paper estimator's), with ``--dask``, without numba-cuda (a stand-in makes its import
+  (the paper estimator's, also with ``--dask``), without numba-cuda (a stand-in makes its import
   fail) and without a CUDA device or driver is one line naming the field as written
   (``--device`` when the flag gave the value, else ``simulation.device``), exit status 2,
   before anything is compiled or written (no file appears), for ``run`` and ``sweep``.
@@ -100,10 +100,8 @@ NO_DEVICE = "numba-cuda finds no CUDA device or driver here"
     (["--device", "cuda", "--estimator", "paper"], "", f"--device = 'cuda': {WEIGHTED}"),
     (["--estimator", "paper"], 'device = "cuda"\n', f"simulation.device = 'cuda': {WEIGHTED}"),
     ([], 'device = "cuda"\nestimator = "paper"\n', f"simulation.device = 'cuda': {WEIGHTED}"),
-    (["--device", "cuda", "--dask", "local:1"], "",
-     "--device = 'cuda': GPUs with Dask (--dask) are not supported yet"),
-    (["--dask", "local:1"], 'device = "cuda"\n', "simulation.device = 'cuda': GPUs with Dask"),
-], ids=["weighted-flag", "weighted-config", "weighted-config-estimator", "dask-flag", "dask-config"])
+    (["--device", "cuda", "--estimator", "paper", "--dask", "local:1"], "", f"--device = 'cuda': {WEIGHTED}"),
+], ids=["weighted-flag", "weighted-config", "weighted-config-estimator", "weighted-dask"])
 def test_a_refused_device_is_one_line_and_writes_nothing(tmp_path, capsys, flags, simulation, words):
     config = _write(tmp_path, CONFIG, simulation)
     line = _refused(tmp_path, capsys, ["run", str(config), "-o", str(tmp_path / "t.h5"), "-q", *flags])

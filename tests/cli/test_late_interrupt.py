@@ -57,3 +57,50 @@ def test_ctrl_c_after_main_returned_is_one_line_exit_130(table, tmp_path):
     assert done.returncode == 130, done.stderr
     assert done.stderr.splitlines() == [f"vcavity: interrupted; the output was written: {out}"]
     assert out.is_file() and done.stdout.startswith(f"wrote {out}")
+
+
+@pytest.mark.parametrize("command", ["export", "plot"])
+def test_a_sigint_the_moment_the_file_is_renamed_names_the_file(table, tmp_path, capsys, monkeypatch, command):
+    """Issue 38: a real SIGINT right after the rename put the file in place, before the
+    command recorded it as written, said only "interrupted" (as if nothing was written)."""
+    import os
+    import signal
+
+    real_replace = os.replace
+
+    def replace_then_sigint(source, destination):
+        real_replace(source, destination)
+        os.kill(os.getpid(), signal.SIGINT)  # handled at once, in the next bytecode
+
+    monkeypatch.setattr(os, "replace", replace_then_sigint)
+    out = tmp_path / ("t.csv" if command == "export" else "t.png")
+    argv = (["export", str(table), str(out), "--format", "csv", "--theta-i", "30"] if command == "export"
+            else ["plot", str(table), "-o", str(out)])
+    assert main(argv) == 130
+    assert capsys.readouterr().err.splitlines() == [f"vcavity: interrupted; the output was written: {out}"]
+    assert out.is_file()
+
+
+@pytest.mark.parametrize("command", ["export", "plot"])
+def test_a_sigint_before_the_rename_writes_nothing(table, tmp_path, capsys, monkeypatch, command):
+    """The other side of the same moment: a SIGINT while the file is being written cancels
+    the rename; nothing is written and no temporary file is left."""
+    import os
+    import signal
+
+    from vcavity.io import atomic
+
+    real_fsync = atomic._fsync
+
+    def fsync_then_sigint(path):
+        real_fsync(path)
+        if path.name.endswith(".tmp"):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(atomic, "_fsync", fsync_then_sigint)
+    out = tmp_path / ("t.csv" if command == "export" else "t.png")
+    argv = (["export", str(table), str(out), "--format", "csv", "--theta-i", "30"] if command == "export"
+            else ["plot", str(table), "-o", str(out)])
+    assert main(argv) == 130
+    assert capsys.readouterr().err.splitlines() == ["vcavity: interrupted"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["t.h5"]

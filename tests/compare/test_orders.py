@@ -64,7 +64,11 @@ def test_other_facets_are_not_applicable_in_one_line(mirror_table, tmp_path, cap
     (["--order", "0.5"], "accepted a bounce order"),
     (["--order", "-2"], "accepted a bounce order"),
     (["--order", "7"], "order 7 is not in table"),
-    (["--order", "2", "--model", "smith"], "--model does not apply with --order"),
+    (["--order", "2", "--model", "smith"], "--model does not apply with --order: the every-order model is the only"),
+    # each flag's own reason (issue 38 item 2: --plots said "the every-order model has no such choice")
+    (["--order", "2", "--plots", "figs"], "--plots does not apply with --order: --order draws no plots"),
+    (["--order", "2", "--lambda-fit"], "--lambda-fit does not apply with --order: Walter's rational Lambda"),
+    (["--order", "2", "--nodes", "32"], "--nodes does not apply with --order: --nodes is the single-bounce"),
 ])
 def test_bad_order_requests_exit_2_in_one_line(mirror_table, capsys, argv, words):
     try:

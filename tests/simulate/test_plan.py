@@ -38,7 +38,8 @@ def _request(tmp_path, simulation=None, **options):
     ({}, {"output": ""}, "--output = '': must be a file path"),
     ({"device": "cuda", "estimator": "paper"}, {},
      "simulation.device = 'cuda': the paper estimator runs on the CPU only: its walk is weighted"),
-    ({"device": "cuda"}, {"dask": "local:1"}, "simulation.device = 'cuda': GPUs with Dask (--dask) are not supported"),
+    ({"device": "cuda", "estimator": "paper"}, {"dask": "local:1"},
+     "simulation.device = 'cuda': the paper estimator runs on the CPU only"),
     ({"device": "cuda", "estimator": "exact"}, {}, "simulation.device = 'cuda': the exact estimator traces no path"),
 ])
 def test_refusals_are_one_line_and_build_no_walk(tmp_path, no_walk_built, simulation, options, words):

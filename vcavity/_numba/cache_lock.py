@@ -49,20 +49,24 @@ def _flocked(index_path: str, exclusive: bool):
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def install(cache_location: str) -> bool:
+def install(cache_location: str, module=caching) -> bool:
     """Make Numba's index saves exclusive (and loads shared) under ``cache_location``.
 
     Parameters
     ----------
     cache_location : str
         vcavity's cache folder (:data:`vcavity._numba.jit.CACHE_LOCATION`); "" installs nothing.
+    module : module
+        The caching module whose ``IndexDataCacheFile`` is wrapped: Numba's
+        (``numba.core.caching``, the default), or numba-cuda's, which has a class of its own
+        (``numba.cuda.core.caching``, :mod:`vcavity.kernels.cuda_loop`).
 
     Returns
     -------
     bool
         True when installed (now or by an earlier call).
     """
-    index_file = getattr(caching, "IndexDataCacheFile", None)
+    index_file = getattr(module, "IndexDataCacheFile", None)
     if fcntl is None or not cache_location or index_file is None or not hasattr(index_file, "save"):
         return False
     if getattr(index_file.save, "_vcavity_locked", False):

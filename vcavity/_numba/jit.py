@@ -179,6 +179,20 @@ def _decorate(decorator, function):
             numba.config.CACHE_DIR = saved
 
 
+def cached(jit, function, **options):
+    """``jit(function, cache=True, **options)`` caching in :data:`CACHE_LOCATION`: for the
+    other targets' decorators that read ``numba.config.CACHE_DIR`` as Numba's does
+    (numba-cuda's ``cuda.jit``, :mod:`vcavity.kernels.cuda_loop`). Call it only where
+    :data:`CACHE_ENABLED`.
+
+    Returns
+    -------
+    dispatcher
+        What ``jit`` returns.
+    """
+    return _decorate(lambda f: jit(f, cache=True, **options), function)
+
+
 def njit(*args, **options):
     """``numba.njit``, caching in :data:`CACHE_LOCATION` (or not at all where nothing can be cached).
 
@@ -202,4 +216,4 @@ def njit(*args, **options):
     return lambda function: _decorate(decorator, function)
 
 
-__all__ = ["njit", "user_cache_dir", "CACHE_ENABLED", "CACHE_LOCATION"]
+__all__ = ["cached", "njit", "user_cache_dir", "CACHE_ENABLED", "CACHE_LOCATION"]

@@ -157,7 +157,8 @@ _RUN_EPILOG_TAIL = """\
                  energy-weighted relative standard error of f_inf is <= E, or N paths;
                  without max_paths the cap is incidence.paths)
                device = 'cpu' | 'cuda'   (default 'cpu'; 'cuda': the walk on an NVIDIA
-                 GPU, needs vcavity[cuda]; not the paper estimator, not --dask; docs/gpu.md)
+                 GPU, needs vcavity[cuda]; not the paper estimator; with --dask, one worker
+                 per GPU; docs/gpu.md)
   [output]     path = "table.h5" (relative to the config file; default: CONFIG with .h5)
                an existing table is replaced only with --overwrite; links, folders, FIFOs,
                devices and the config itself never are

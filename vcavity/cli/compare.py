@@ -111,10 +111,18 @@ def _compare_order(args: argparse.Namespace, table) -> int:
     from vcavity.analytic.single_bounce import ModelNotApplicable
     from vcavity.compare import compare_order, format_order_report
 
-    for flag, given in (("--model", args.model is not None), ("--plots", args.plots is not None),
-                        ("--lambda-fit", args.lambda_fit), ("--nodes", args.nodes != 64)):
+    # each flag's own reason: what it does without --order, and why --order has no use for it
+    reasons = (("--model", args.model is not None, "the every-order model is the only model of --order; the "
+                "single-bounce models of --model compare f1, without --order"),
+               ("--plots", args.plots is not None, "--order draws no plots: its report is the chi-square over "
+                "cells and the albedo z-test, as text; --plots draws the f1 comparison, without --order"),
+               ("--lambda-fit", args.lambda_fit, "Walter's rational Lambda is a choice of the Smith models of "
+                "f1; the every-order model traces V-grooves, it has no Lambda"),
+               ("--nodes", args.nodes != 64, "--nodes is the single-bounce models' body-integral accuracy; the "
+                "every-order model refines its own mesh to a tenth of the table's noise"))
+    for flag, given, reason in reasons:
         if given:
-            return error(f"{flag} does not apply with --order (the every-order model has no such choice)")
+            return error(f"{flag} does not apply with --order: {reason}")
     try:
         report = compare_order(table, args.order, significance=args.significance)
     except ModelNotApplicable as exc:

@@ -126,13 +126,19 @@ def command(args: argparse.Namespace) -> int:
         return error(str(exc))
     request = ExportRequest(order=order, order_text=args.order, theta_i_deg=args.theta_i,
                             layout=args.layout or "vcavity", orders=orders, orders_text=tuple(args.orders or ()))
-    try:
-        export(source, args.format, request, out.path)
-    except ExportRefused as exc:
-        return error(str(exc))
-    except OSError as exc:
-        return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
-    written(out.path)
+    from vcavity.simulate.interrupts import DeferredInterrupt
+
+    # Ctrl-C deferred: before the rename it cancels the write (nothing written); from the
+    # rename on it is acted on once the file is recorded as written, so its line names it
+    with DeferredInterrupt() as interrupt:
+        try:
+            export(source, args.format, request, out.path, cancelled=interrupt.cancelled)
+        except ExportRefused as exc:
+            return error(str(exc))
+        except OSError as exc:
+            return error(f"FILE = {out.shown!r}: writing failed ({exc.strerror or exc}); nothing was written")
+        written(out.path)
+    interrupt.check()
     what = order_name(order) if orders is None else ", ".join(order_name(k) for k in orders)
     layout = f", layout {args.layout}" if args.layout is not None else ""
     print(f"wrote {out.path} ({args.format}{layout}, {what})")

@@ -107,7 +107,12 @@ def command(args: argparse.Namespace) -> int:
                                 points=args.point, versus=args.versus, force=args.force)
     except PlotError as exc:
         return error(str(exc))
-    render(sources[0], request)
-    written(request.output)
+    from vcavity.simulate.interrupts import DeferredInterrupt
+
+    # as export: a Ctrl-C before the rename cancels it, one from the rename on names the file
+    with DeferredInterrupt() as interrupt:
+        render(sources[0], request, cancelled=interrupt.cancelled)
+        written(request.output)
+    interrupt.check()
     print(f"wrote {request.output}")
     return EXIT_OK

@@ -35,7 +35,8 @@ def add_parser(subparsers) -> None:
     add_run_flags(run, NAME)
     run.add_argument("--checkpoint-every", type=seconds_arg, default=60.0, metavar="S",
                      help="save the run's progress to OUT.h5.checkpoint every S seconds (default 60); Ctrl-C "
-                     "saves it too and exits 130; removed once the table is written")
+                     "saves it too and exits 130; removed once the table is written. While the run lasts it holds "
+                     "OUT.h5.lock: a second run or sweep writing OUT.h5 is refused")
 
 
 def command(args: argparse.Namespace) -> int:
@@ -87,34 +88,48 @@ def simulate(args: argparse.Namespace):
     BadInput
         The first check that failed, as its one-line error.
     """
+    import contextlib
+
     from vcavity.simulate import service
     from vcavity.simulate.plan import PlanError, RunRequest, plan_run
 
     request = RunRequest(read_config(args), config_file=args.config, output=args.output, overwrite=args.overwrite,
                          resume=args.resume, threads=args.threads, chunk_blocks=args.chunk_blocks, dask=args.dask,
                          checkpoint_every_s=args.checkpoint_every)
-    executor = None
+    executor = progress = None
+    locks = contextlib.ExitStack()  # the output's writer lock (io/lock.py), held to the end of the run
     try:
-        plan = plan_run(request)
+        plan = plan_run(request, locks)
+        # connected first: a scheduler that does not answer, or workers that cannot run the
+        # device (CUDA), are refused in one line before anything else is said or compiled
+        executor = service.connect(args.dask, plan.config) if args.dask else None
+        if plan.lock_note:
+            _say(plan.lock_note)
         if plan.removed:
             _say(f"removed {len(plan.removed)} stale temporary file(s) of interrupted writes: "
                  f"{', '.join(p.name for p in plan.removed)}")
         cfg = plan.config
         work = f"{plan.total_paths:,} paths" if plan.traces else f"no path ({cfg.estimator} estimator)"
-        where = "on the CUDA device" if cfg.device == "cuda" else f"{plan.threads} thread(s)"  # --threads: the CPU's
+        where = f"{plan.threads} thread(s)"  # --threads: the CPU's
+        if cfg.device == "cuda":
+            where = "on the Dask workers' GPUs" if args.dask else "on the CUDA device"
         _say(f"{cfg.source}: {len(cfg.incidence)} incident direction(s), {work}, {where}")
         if plan.resume_note:
             _say(plan.resume_note)
         simulation = service.prepare(plan, _say)
-        executor = service.connect(args.dask) if args.dask else None
         done = int(plan.state.paths_done(cfg).sum()) if plan.state is not None else 0
         progress = None if args.quiet or not plan.traces else ProgressBar(plan.total_paths, done, "tracing")
         table = service.execute(plan, simulation, _say, progress, executor)
     except PlanError as exc:  # a refusal of an overridden field names the flag (--device)
         raise BadInput(name_the_flag(str(exc), budget_overrides(args))) from None
     finally:
-        if executor is not None:
-            executor.close()
+        if progress is not None:
+            progress.close()  # before the error's line (a failed checkpoint): no bar fragment on it
+        try:
+            if executor is not None:
+                executor.close()
+        finally:
+            locks.close()
     return (EXIT_INTERRUPTED, None) if table is None else (EXIT_OK, (plan, table))
 
 

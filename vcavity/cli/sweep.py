@@ -8,6 +8,7 @@ continues).
 from __future__ import annotations
 
 import argparse
+import contextlib
 import sys
 
 from vcavity.cli.common import EXIT_INTERRUPTED, EXIT_OK, error, first_line, written
@@ -43,7 +44,8 @@ and --resume continues a sweep only with the same ones.
 output: one HDF5 file, brdf(alpha, eta, theta_i_deg, order, cell), albedo, counts, ...
 readable with xarray.open_dataset(OUT, engine="h5netcdf"); created when the first point
 finishes, then each point written in place (its values, a checksum, its done flag last),
-so an interrupted sweep keeps its finished points: continue it with --resume.
+so an interrupted sweep keeps its finished points: continue it with --resume. While it
+runs it holds OUT.h5.lock: a second sweep or run into OUT.h5 is refused (exit status 2).
 docs/sweeps.md; examples: runs/sweep_roughness_eta.toml, runs/sweep_gold_rgb.toml
 """
 
@@ -65,7 +67,8 @@ def command(args: argparse.Namespace) -> int:
 
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
-    from vcavity.simulate.plan import PlanError, check_dask_address, check_dask_work, check_device
+    from vcavity.simulate.plan import (PlanError, check_dask_address, check_dask_work, check_device,
+                                       check_device_memory)
     from vcavity.sweep import spec as sweep_mod
     from vcavity.sweep import run as sweep_run
     from vcavity.io.preflight import PreflightError
@@ -84,27 +87,47 @@ def command(args: argparse.Namespace) -> int:
         for point in spec.points:  # the device's and Dask's refusals, before the file is touched
             check_device(point.config, args.dask)
             check_dask_work(point.config, args.dask)
+            check_device_memory(point.config, point.config.sensor_resolution ** 2, args.dask)
     except PlanError as exc:
         return error(name_the_flag(str(exc), overrides))
-    try:
-        output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
-                                                   resume=args.resume, threads=args.threads)
-    except (sweep_mod.SweepError, PreflightError, PlanError) as exc:
-        return error(str(exc))
+    # the output's writer lock, held to the end of the command (io/lock.py): a second
+    # sweep or run into the same file is refused in plan_output, before it reads or writes
+    with contextlib.ExitStack() as locks:
+        try:
+            output, data, note = sweep_run.plan_output(spec, args.output, args.sweep, overwrite=args.overwrite,
+                                                       resume=args.resume, threads=args.threads, locks=locks)
+        except (sweep_mod.SweepError, PreflightError, PlanError) as exc:
+            return error(str(exc))
+        return _locked(args, spec, output, data, note, overrides)
+
+
+def _locked(args, spec, output, data, note, overrides) -> int:
+    """The sweep once its output is locked: connect, trace, write, report."""
     if note:
         print(f"vcavity: {note}", file=sys.stderr)
     executor = None
     if args.dask is not None:
         from vcavity.simulate.dask import DaskExecutor
+        from vcavity.simulate.plan import PlanError
+        from vcavity.simulate.service import check_workers
 
+        first = spec.points[0].config  # (the device is every point's: part of the digest)
         try:
-            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1)
+            executor = DaskExecutor(args.dask, threads_per_task=args.threads or 1, device=first.device)
         except (ImportError, ValueError, OSError) as exc:  # OSError: no scheduler answers (a timeout)
             return error(f"--dask = {args.dask!r}: cannot use it ({first_line(exc)})")
+        try:
+            check_workers(executor, first, args.dask)  # CUDA: each worker has numba-cuda and a GPU
+        except PlanError as exc:
+            executor.close()
+            return error(name_the_flag(str(exc), overrides))
+    from vcavity.sweep import run as sweep_run
+
     n_points = len(spec.points)
-    total = sum(spec.point_paths(p) for p in spec.points)
+    total = sum(spec.point_paths(p) for p in spec.points) if sweep_run.traces(spec) else 0
+    work = f"{total:,} paths in all" if total else f"no path ({spec.points[0].config.estimator} estimator)"
     print(f"vcavity: {spec.source}: {n_points} point(s) x {spec.n_directions} direction(s), "
-          f"{data.n_done()} done, {total:,} paths in all"
+          f"{data.n_done()} done, {work}"
           + "".join(f"; {field} = {value!r} (override)" for field, value in overrides.items()), file=sys.stderr)
     try:
         return _trace(args, spec, output, data, executor, total)
@@ -130,27 +153,38 @@ def _trace(args, spec, output, data, executor, total) -> int:
     # Ctrl-C only sets a flag, checked between kernel calls and after each point's write:
     # a point being written is completed, the running one is dropped.
     with DeferredInterrupt() as interrupt:
-        bar = None if args.quiet else ProgressBar(total, sweep_run.paths_done(spec, data), "sweeping")
+        bar = None
+        if not args.quiet:  # paths; points where no point traces any (the exact estimator)
+            bar = (ProgressBar(total, sweep_run.paths_done(spec, data), "sweeping") if total else
+                   ProgressBar(len(spec.points), data.n_done(), "sweeping", unit="point"))
 
         def progress(paths_now, error):
             interrupt.check()
             if bar is not None:
                 bar.advance(paths_now, float("nan"))  # a point's own error: no target across points
 
+        def point_done(point, data):
+            if bar is not None and not total:
+                bar.advance(1, float("nan"))
+            interrupt.check()
+
+        failure = None
         try:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
-                          executor=executor, on_progress=progress, on_point=lambda point, d: interrupt.check(),
+                          executor=executor, on_progress=progress, on_point=point_done,
                           should_stop=interrupt.cancelled)  # polled by an exact point's models too
         except ModelNotApplicable as exc:
-            return error(f"simulation.estimator = {spec.points[0].config.estimator!r}: {first_line(exc)} "
-                          f"({data.n_done()} point(s) done are in {output.path})")
+            failure = (f"simulation.estimator = {spec.points[0].config.estimator!r}: {first_line(exc)} "
+                       f"({data.n_done()} point(s) done are in {output.path})")
         except OSError as exc:
             reason = exc.strerror or first_line(exc)
             kept = "the file holds the points finished before" if output.path.exists() else "nothing was written"
-            return error(f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); {kept}")
+            failure = f"{output.field} = {output.shown!r}: writing the sweep failed ({reason}); {kept}"
         finally:
             if bar is not None:
-                bar.close()
+                bar.close()  # before any line: no bar fragment on the error's line
+        if failure is not None:
+            return error(failure)
     written(output.path)  # a Ctrl-C from here on (the summary, Dask's shutdown) says the file is complete
     print(f"wrote {output.path}")
     print(format_sweep_summary(open_sweep(output.path)))

@@ -24,7 +24,9 @@ HELP = {
         "resume": "continue the interrupted run of OUT.h5 from its checkpoint OUT.h5.checkpoint (same config "
                   "and seed; the table equals an uninterrupted run's, bit for bit); a file at OUT.h5 is replaced "
                   "only if it is this run's own table, else only with --overwrite",
-        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default 512; does not change results)",
+        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default: sized to about 0.5 s of work per "
+                        "call, 1 s on a GPU or a Dask worker, so Ctrl-C is answered within that; does not "
+                        "change results)",
         "dask": "run the work units on a Dask cluster: a scheduler address (tcp://host:8786) or local:N for N "
                 "local worker processes (needs vcavity[distributed]; docs/distributed.md); the table is the "
                 "local run's, bit for bit",
@@ -34,7 +36,8 @@ HELP = {
         "overwrite": "replace an existing output",
         "resume": "continue the sweep in the existing output: run only the points not done (refused if it "
                   "holds another sweep)",
-        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (does not change results)",
+        "chunk_blocks": "RNG blocks of 4096 paths per kernel call (default: sized to about 0.5 s of work per "
+                          "call; does not change results)",
         "dask": "run each point's work units on a Dask cluster: a scheduler address (tcp://host:8786) or "
                 "local:N (a LocalCluster of N workers); same file as a local run",
     },
@@ -71,13 +74,15 @@ class ProgressBar:
         Paths planned and already done (a resumed run, a sweep's finished points).
     label : str
         The bar's description (``"tracing"``, ``"sweeping"``).
+    unit : str, default "path"
+        What it counts (``"point"``: a sweep whose estimator traces no path).
     """
 
-    def __init__(self, total: int, initial: int, label: str):
+    def __init__(self, total: int, initial: int, label: str, unit: str = "path"):
         from tqdm import tqdm
 
-        self.bar = tqdm(total=total, initial=initial, unit="path", unit_scale=True, dynamic_ncols=True, desc=label,
-                        file=sys.stderr)
+        self.bar = tqdm(total=total, initial=initial, unit=unit, unit_scale=unit == "path", dynamic_ncols=True,
+                        desc=label, file=sys.stderr)
 
     def advance(self, paths: int, error: float) -> None:
         """``paths`` more traced; ``error`` shown unless NaN (no target)."""
@@ -128,7 +133,7 @@ def add_budget_flags(parser: argparse.ArgumentParser) -> None:
     # the choices spelled here, not read from vcavity.config: --help loads no registry
     parser.add_argument("--device", choices=("cpu", "cuda"),
                         help="where the walk runs: cpu (default), or cuda: an NVIDIA GPU (needs vcavity[cuda]; "
-                        "the unweighted walks only, no --dask; tables agree with the CPU's in distribution, "
+                        "the unweighted walks only; with --dask, one worker per GPU; tables agree with the CPU's in distribution, "
                         "not bit for bit: docs/gpu.md) (overrides simulation.device)")
 
 

@@ -2,7 +2,8 @@
 cache ahead of the runs that need them.
 
 Exit status: 0 everything named ready; 2 an unknown name, no usable cache or nothing to
-cache it with (one line); 130 interrupted (what finished so far stays cached).
+cache it with, or ``--device cuda`` without numba-cuda or a GPU (one line); 130
+interrupted (what finished so far stays cached).
 """
 
 from __future__ import annotations
@@ -31,14 +32,21 @@ takes every registered value, except the walk, which is v-cavity unless --micros
 says otherwise (the smith walk only for the distributions it takes; the others are
 skipped). --models compiles the analytic models of the estimators exact (every order)
 and exact-f1 (the single-bounce cell model, for each walk): runs with those estimators
-need them besides their kernel, and compile them for minutes on a cold cache; one compile
-serves every distribution and facet. --all is every variant of every walk and the models.
+need them besides their kernel, and compile them for a minute or more on a cold cache;
+one compile serves every distribution and facet. --all is every variant of every walk
+and the models.
 
 The cache is NUMBA_CACHE_DIR when set, else ~/.cache/vcavity/<version>/numba (the
 XDG_CACHE_HOME rule; the summary line prints the folder). Running warmup again loads what
 is cached and compiles only what is missing or stale (after an upgrade); several warmups
 at once, on one machine or on nodes sharing the folder, leave a working cache (each
-compile is written atomically). Ctrl-C keeps the variants finished so far."""
+compile is written atomically). Ctrl-C keeps the variants finished so far.
+
+--device cuda compiles the variants' CUDA kernels instead (numba-cuda and a GPU needed,
+docs/gpu.md), into the same cache, for the GPU model of this machine: run it on each
+machine whose GPUs run the walks (each Dask worker's, docs/distributed.md). The paper
+estimator's weighted walk has no CUDA kernel and is no variant here. The models run on
+the CPU whatever the device: warm them with --models (or --all) without --device cuda."""
 
 EPILOG = """\
 examples:
@@ -46,7 +54,8 @@ examples:
   vcavity warmup --distribution ggx beckmann --microsurface smith
   vcavity warmup --models                                               # exact and exact-f1 runs' models
   vcavity warmup --all --list                                           # what --all would compile
-  NUMBA_CACHE_DIR=/shared/nc vcavity warmup --all                       # a cluster image or shared cache"""
+  NUMBA_CACHE_DIR=/shared/nc vcavity warmup --all                       # a cluster image or shared cache
+  vcavity warmup --all --device cuda                                    # the GPU kernels (on a GPU machine)"""
 
 
 def add_parser(subparsers) -> None:
@@ -64,7 +73,10 @@ def add_parser(subparsers) -> None:
                         help="walks: v-cavity, smith (default: v-cavity)")
     warmup.add_argument("--models", action="store_true", help="the analytic models of the estimators exact and "
                         "exact-f1 (alone: no kernel variant)")
-    warmup.add_argument("--all", action="store_true", help="every variant of every walk, and the models")
+    warmup.add_argument("--all", action="store_true", help="every variant of every walk, and the models (with "
+                        "--device cuda: the variants' CUDA kernels only)")
+    warmup.add_argument("--device", choices=("cpu", "cuda"), default="cpu",
+                        help="compile the CPU's kernels (default) or the CUDA kernels (a GPU needed)")
     warmup.add_argument("--list", action="store_true", help="print the selected variants and compile nothing")
     warmup.add_argument("-q", "--quiet", action="store_true", help="no progress bar")
 
@@ -78,7 +90,10 @@ def _selection(args):
         return f"--all = every variant: it takes no --{named[0]}"
     if not args.all and not named and not args.models:
         return "name what to compile: --distribution, --facet, --microsurface, --models, or --all"
-    models = list(MODELS) if args.all or args.models else []
+    if args.models and args.device == "cuda":
+        return ("--models with --device = 'cuda': the models run on the CPU whatever the device; warm them with "
+                "--models alone")
+    models = list(MODELS) if (args.all or args.models) and args.device == "cpu" else []
     if not args.all and not named:
         return models
     keyword = {"--microsurface": "microsurfaces", "--distribution": "distribution_names", "--facet": "facet_names"}
@@ -137,17 +152,24 @@ def command(args: argparse.Namespace) -> int:
         for item in selected:
             print(item.label)
         return EXIT_OK
+    from tqdm import tqdm
+
+    from vcavity.simulate.warmup import Variant, compile_models, compile_variant
+
+    if args.device == "cuda":  # before the cache's refusals: without a GPU nothing is compiled anyway
+        from vcavity.simulate.plan import cuda_unavailable
+
+        reason = cuda_unavailable()
+        if reason is not None:
+            return error(f"--device = 'cuda': {reason}")
     refusal = _cache_refusal(jit)
     if refusal:
         return error(refusal)
     if note:
         sys.stderr.write(note)
-    from tqdm import tqdm
-
-    from vcavity.simulate.warmup import Variant, compile_models, compile_variant
-
     n_variants = sum(isinstance(item, Variant) for item in selected)
-    what = " and ".join(part for part in (f"{n_variants} variant(s)" if n_variants else "",
+    kind = "CUDA kernel(s) of the variant(s)" if args.device == "cuda" else "variant(s)"
+    what = " and ".join(part for part in (f"{n_variants} {kind}" if n_variants else "",
                                           f"{len(selected) - n_variants} model code(s)"
                                           if len(selected) > n_variants else "") if part)
     start = time.perf_counter()
@@ -156,13 +178,24 @@ def command(args: argparse.Namespace) -> int:
     try:
         for item in bar:
             bar.set_description(f"compiling {item.label}")
-            _, from_cache = (compile_variant if isinstance(item, Variant) else compile_models)(item)
+            _, from_cache = compile_variant(item, args.device) if isinstance(item, Variant) else compile_models(item)
             loaded += from_cache
             compiled += not from_cache
     except KeyboardInterrupt:
         bar.close()
         raise Interrupted(f"{compiled + loaded} of {what} ready in {jit.CACHE_LOCATION}") from None
     bar.close()
+    if args.device == "cuda" and _simulated():  # no model is selected with cuda
+        print(f"vcavity: {len(selected)} variant(s) run under numba's CUDA simulator in "
+              f"{time.perf_counter() - start:.1f} s: it compiles and caches nothing", file=sys.stderr)
+        return EXIT_OK
     print(f"vcavity: {what} ready in {time.perf_counter() - start:.1f} s ({compiled} compiled, "
           f"{loaded} loaded from the cache) in {jit.CACHE_LOCATION}", file=sys.stderr)
     return EXIT_OK
+
+
+def _simulated() -> bool:
+    """Whether the CUDA kernels ran under numba's simulator (``NUMBA_ENABLE_CUDASIM=1``)."""
+    from vcavity.kernels import cuda_loop
+
+    return cuda_loop.SIMULATED

@@ -111,7 +111,7 @@ def order_data(table, request: ExportRequest):
     return table.brdf[:, index, :], index
 
 
-def export(source, format_name: str, request: ExportRequest, path) -> None:
+def export(source, format_name: str, request: ExportRequest, path, cancelled=None) -> None:
     """Export ``source`` to ``path`` atomically: all checks first, then one rename.
 
     Parameters
@@ -120,6 +120,9 @@ def export(source, format_name: str, request: ExportRequest, path) -> None:
     format_name : str
     request : ExportRequest
     path : str or os.PathLike
+    cancelled : callable, optional
+        Asked just before the rename (:func:`vcavity.io.atomic.replace_atomically`): True
+        removes the complete temporary file and raises ``KeyboardInterrupt``.
 
     Raises
     ------
@@ -132,4 +135,4 @@ def export(source, format_name: str, request: ExportRequest, path) -> None:
     if request.output is None:
         request = dataclasses.replace(request, output=Path(path))
     prepared = module.prepare(source, request)
-    replace_atomically(Path(path), lambda temporary: module.write(prepared, Path(temporary)))
+    replace_atomically(Path(path), lambda temporary: module.write(prepared, Path(temporary)), cancelled=cancelled)

@@ -61,6 +61,7 @@ def _first_bad(bad: np.ndarray, array: np.ndarray):
 
 def refuse(name: str, index, value, location, accepted: str):
     """Raise the one-line :class:`TableFormatError` of a bad value of dataset ``name``."""
+    value = attribute_value(value)  # a NumPy scalar's repr (np.float64(0.5)) is no value a user wrote
     raise TableFormatError(f"dataset '{name}' = {value!r}{_where(index)} in {location}: {accepted}")
 
 
@@ -145,7 +146,7 @@ def check_albedo(brdf: np.ndarray, albedo: np.ndarray, area: np.ndarray, locatio
         index, value = found
         refuse("albedo", index, value, location,
                f"must equal the sum of brdf x cell_projected_solid_angle over the cells, "
-               f"{total[index]!r} (to {ALBEDO_RTOL:g} relative)")
+               f"{attribute_value(total[index])!r} (to {ALBEDO_RTOL:g} relative)")
 
 
 def check_close(name: str, array: np.ndarray, expected: np.ndarray, location, what: str) -> None:
@@ -156,7 +157,7 @@ def check_close(name: str, array: np.ndarray, expected: np.ndarray, location, wh
     found = _first_bad(~good, array)
     if found is not None:
         index, value = found
-        refuse(name, index, value, location, f"must equal {what}, {np.asarray(expected)[index]!r}")
+        refuse(name, index, value, location, f"must equal {what}, {attribute_value(np.asarray(expected)[index])!r}")
 
 
 def check_degrees(name: str, degrees: np.ndarray, radians: np.ndarray, location, radians_name: str) -> None:
@@ -237,8 +238,8 @@ def _check_sweep_sensor(sweep, location) -> None:
     resolution = sweep.attrs.get("sensor_resolution")
     if isinstance(resolution, (bool, np.bool_)) or not isinstance(resolution, (int, np.integer)) \
             or resolution < 1 or resolution * resolution != n_cells:
-        raise TableFormatError(f"attribute 'sensor_resolution' = {resolution!r} in {location}: must be N "
-                               f"with N x N = {n_cells} (the cells stored)")
+        raise TableFormatError(f"attribute 'sensor_resolution' = {attribute_value(resolution)!r} in {location}: "
+                               f"must be N with N x N = {n_cells} (the cells stored)")
     sensor = EqualAreaSensor(int(resolution))
     check_close("cell_center", np.asarray(sweep.cells["cell_center"]), np.asarray(sensor.cell_center), location,
                 f"the value of the {sensor.resolution} x {sensor.resolution} sensor")
@@ -255,7 +256,8 @@ def _check_sweep_angles(sweep, radians: dict, location) -> None:
         try:
             degrees = np.asarray(stored[name], dtype=np.float64)
         except (TypeError, ValueError):
-            raise TableFormatError(f"dataset '{name}' = {list(stored[name])!r} in {location}: "
+            raise TableFormatError(f"dataset '{name}' = {attribute_value(np.asarray(stored[name], dtype=object))!r} in "
+                                   f"{location}: "
                                    "must hold numbers") from None
         good = (degrees >= 0) & (degrees <= 90) if name == "theta_i_deg" else np.isfinite(degrees)
         check_where(name, degrees, good, location,

@@ -15,7 +15,7 @@ import stat
 from dataclasses import dataclass
 from pathlib import Path
 
-from vcavity.io import atomic
+from vcavity.io import atomic, lock
 
 _MB = 1024.0**2
 _TABLE_OVERHEAD_BYTES = 1 << 20  # HDF5 metadata, attributes, the config JSON: well under 1 MB
@@ -163,6 +163,31 @@ def probe_output(out: Output) -> list[Path]:
     return removed
 
 
+def lock_output(out: Output, locks) -> lock.WriterLock:
+    """Hold the writer lock of ``out`` (:mod:`vcavity.io.lock`) until ``locks`` closes.
+
+    Parameters
+    ----------
+    out : Output
+    locks : contextlib.ExitStack
+        Releases the lock when it closes (the command's end: success, error or Ctrl-C).
+
+    Returns
+    -------
+    vcavity.io.lock.WriterLock
+        The lock held (its ``took_over`` names a stale holder it replaced).
+
+    Raises
+    ------
+    PreflightError
+        Another writer holds it, or the folder cannot hold it (one line naming ``out.field``).
+    """
+    try:
+        return locks.enter_context(lock.WriterLock(out.path))
+    except lock.LockError as exc:
+        raise out.fail(str(exc)) from None
+
+
 def table_bytes(n_incidence: int, n_orders: int, n_cells: int) -> int:
     """Upper bound of a table's size: ``counts``, ``brdf``, ``brdf_stderr`` uncompressed.
 
@@ -242,7 +267,9 @@ def check_memory(config, threads: int, n_cells: int, tallies: int = 1) -> int:
     ----------
     config : vcavity.config.RunConfig
     threads : int
-        Threads the run uses (one tally per kernel slot, a slot per thread).
+        Threads the run uses (one tally per kernel slot, a slot per thread). On
+        ``config.device = "cuda"`` not counted: the host gets one tally set per kernel call
+        (the GPU's own memory is checked where the device is, vcavity.simulate.plan).
     n_cells : int
         Sensor cells (``sensor_resolution`` squared).
     tallies : int
@@ -253,16 +280,18 @@ def check_memory(config, threads: int, n_cells: int, tallies: int = 1) -> int:
     PreflightError
         Naming ``simulation.sensor_resolution`` and ``max_order``, with the figure.
     """
+    gpu = getattr(config, "device", "cpu") == "cuda"
     needed = run_memory_bytes(len(config.incidence), len(config.orders), config.max_order, n_cells,
-                              threads, tallies)
+                              1 if gpu else threads, tallies)
     available = available_memory()
     if available is not None and needed > available:
+        slots = "the GPU's tally" if gpu else f"{threads} thread(s)"
         raise PreflightError(
             f"simulation.sensor_resolution = {config.sensor_resolution} with max_order = "
             f"{config.max_order}: the run needs about {_size(needed)} of memory "
-            f"({threads} thread(s) x {config.max_order + 1} orders x {n_cells:,} cells per tally, "
+            f"({slots} x {config.max_order + 1} orders x {n_cells:,} cells per tally, "
             f"{len(config.incidence)} direction(s)), {_size(available)} available; "
-            "accepted: a run that fits (lower sensor_resolution, max_order or --threads)")
+            f"accepted: a run that fits (lower sensor_resolution, max_order{'' if gpu else ' or --threads'})")
     return needed
 
 

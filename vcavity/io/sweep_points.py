@@ -27,6 +27,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from vcavity.io.checks import attribute_value
 from vcavity.io.sweep_checksum import point_slice
 from vcavity.io.sweep_table import FORMAT_NAME, VARIABLES, SweepData
 
@@ -122,7 +123,8 @@ class PointWriter:
                 stored, wanted = h5.attrs.get(key), (FORMAT_NAME if key == "format" else data.attrs.get(key))
                 stored = stored.decode() if isinstance(stored, bytes) else stored
                 if stored != wanted:
-                    raise NotInPlace(f"its attribute {key} is {stored!r}, not {wanted!r} (another file or sweep)")
+                    raise NotInPlace(f"its attribute {key} is {attribute_value(stored)!r}, not "
+                                     f"{attribute_value(wanted)!r} (another file or sweep)")
             layouts = {}
             end = os.fstat(self._fd).st_size
             for name in VARIABLES:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import itertools
+import json
 import math
 
 import numpy as np
@@ -15,6 +16,18 @@ MAX_ROWS = 200
 
 def _value(v) -> str:
     return f"{v:g}" if isinstance(v, (int, float)) else str(v)
+
+
+def sweep_device(sweep) -> str:
+    """Where a sweep's walks ran, ``"cpu"`` or ``"cuda"``: its root attribute ``device``; in a
+    file written before it, ``simulation.device`` of its overrides or spec, else ``"cpu"``."""
+    if "device" in sweep.attrs:
+        return str(sweep.attrs["device"])
+    try:
+        written = json.loads(sweep.attrs.get("spec") or "{}").get("base", {}).get("simulation", {}).get("device")
+        return str(json.loads(sweep.attrs.get("overrides") or "{}").get("simulation.device", written or "cpu"))
+    except (ValueError, AttributeError):  # not JSON, or not of a sweep's shape
+        return "cpu"
 
 
 def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
@@ -44,7 +57,8 @@ def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
     resolution = attrs.get("sensor_resolution")
     lines.append(f"points: {sweep.n_done()} of {n_points} done ({math.prod(sweep.shape):,} grid positions); "
                  f"sweep seed {attrs.get('seed')}, estimator {attrs.get('estimator')}, sensor "
-                 f"{resolution}x{resolution}, orders {', '.join(order_name(int(k)) for k in sweep.order)}")
+                 f"{resolution}x{resolution}, orders {', '.join(order_name(int(k)) for k in sweep.order)}; "
+                 f"device {sweep_device(sweep)}")
     if sweep.rejected:  # marked done, but their bytes do not match their checksum
         lines.append(f"{len(sweep.rejected)} point(s) marked done fail their checksum (a write cut short or "
                      "changed bytes): read as pending; sweep --resume runs them again")
@@ -71,4 +85,4 @@ def format_sweep_summary(sweep, max_rows: int = MAX_ROWS) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["MAX_ROWS", "format_sweep_summary"]
+__all__ = ["MAX_ROWS", "format_sweep_summary", "sweep_device"]

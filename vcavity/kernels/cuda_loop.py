@@ -20,6 +20,13 @@ into FMAs and libdevice's transcendental functions are not glibc's (docs/gpu.md)
 the CUDA simulator (``NUMBA_ENABLE_CUDASIM=1``), where the device functions are the CPU's
 own compiled code, it is (tests/kernels/test_cuda_loop.py).
 
+Each kernel is cached on disk (``cuda.jit(cache=True)``) in vcavity's Numba cache folder
+(:mod:`vcavity._numba.jit`), one index per variant (named after it), keyed by numba-cuda on
+the kernel's closure values (so on ``SOURCE_TAG``: an edit of any inlined source
+recompiles), this file's time stamp, the argument types and the device's compute
+capability: ``vcavity warmup --device cuda`` fills it, and a later process loads the
+kernel instead of compiling it. Under the simulator nothing is compiled or cached.
+
 numba-cuda is optional (``pip install vcavity[cuda]``): this module imports it at import
 time, and nothing else in the package imports this module at import time.
 """
@@ -29,6 +36,8 @@ from __future__ import annotations
 import numpy as np
 from numba import config, cuda, float64, int64, uint64, void
 
+from vcavity._numba import cache_lock
+from vcavity._numba import jit as cache
 from vcavity.kernels import registry as walks
 from vcavity.kernels.loop import COLUMNS
 from vcavity.kernels.scaffold import ABSORBED, EXITED, SOURCE_TAG, TRUNCATED, UNWEIGHTED, block_start
@@ -36,6 +45,13 @@ from vcavity.sensor.binning import direction_to_cell
 
 if getattr(cuda, "implementation", None) != "NVIDIA":  # numba's own deprecated numba.cuda, not numba-cuda
     raise ImportError("the CUDA loop needs numba-cuda: pip install 'vcavity[cuda]'")
+
+if not config.ENABLE_CUDASIM:  # (the simulator caches nothing)
+    from numba.cuda.core import caching as _cuda_caching
+
+    # numba-cuda's cache index is its own class, not Numba's: its saves made exclusive too
+    # (two Dask workers on GPUs of two kinds save two entries of one kernel's index at once)
+    cache_lock.install(cache.CACHE_LOCATION, _cuda_caching)
 
 #: Whether numba runs CUDA kernels in its simulator (``NUMBA_ENABLE_CUDASIM=1``, read at import).
 SIMULATED = bool(config.ENABLE_CUDASIM)
@@ -141,13 +157,26 @@ class CudaKernel:
     Attributes
     ----------
     launched : bool
-        Whether it was launched (and so compiled) in this process.
+        Whether it was launched (and so compiled, or loaded from the disk cache) in this process.
     """
 
     def __init__(self, kernel, threads_per_block: int = 128):
         self.kernel = kernel
         self.threads_per_block = _positive(threads_per_block, "threads_per_block", MAX_THREADS_PER_BLOCK)
-        self.launched = False  # compiled on the first launch (no disk cache yet)
+        self.launched = False  # compiled, or loaded from the disk cache, on the first launch
+
+    @property
+    def compiles(self) -> int:
+        """Times this process compiled the kernel (a load from the disk cache is none; 0
+        under the simulator, which compiles nothing)."""
+        stats = getattr(self.kernel, "stats", None)  # the simulator's kernels have none
+        return 0 if stats is None else int(sum(stats.cache_misses.values()))
+
+    @property
+    def cache_path(self) -> str | None:
+        """The folder of the kernel's disk cache (None: not cached, as under the simulator)."""
+        stats = getattr(self.kernel, "stats", None)
+        return None if stats is None or not stats.cache_path else str(stats.cache_path)
 
     def __call__(self, call) -> tuple:
         return self.launch(call)
@@ -198,6 +227,20 @@ def device_attributes() -> dict:
             "cuda_runtime_version": ".".join(map(str, cuda.runtime.get_version()))}
 
 
+def launch_bytes(max_order: int, n_cells: int) -> int:
+    """GPU memory one launch allocates: the tally ``[max_order + 1, n_cells]`` and the
+    statistics, int64, with the parameter arrays (a few hundred bytes) rounded in."""
+    return 8 * ((int(max_order) + 1) * int(n_cells) + N_STATS) + 4096
+
+
+def free_memory() -> int | None:
+    """Free memory of the current GPU, bytes (None under the simulator, which has no device)."""
+    if SIMULATED:
+        return None
+    free, _total = cuda.current_context().get_memory_info()
+    return int(free)
+
+
 def _positive(value, name: str, most: int = 2 ** 31 - 1) -> int:
     """``value`` as an int in ``[1, most]``, or a one-line ValueError."""
     if isinstance(value, bool) or int(value) != value or not 1 <= value <= most:
@@ -237,7 +280,8 @@ def build_cuda(walk_kind: int, dist_kind: int, facet_kind: int, facet_variant: i
     Returns
     -------
     CudaKernel
-        Over ``cuda.jit`` of the kernel, compiled on its first launch (no disk cache yet).
+        Over ``cuda.jit(cache=True)`` of the kernel, compiled on its first launch or loaded
+        from vcavity's cache folder (module doc; not cached where no folder is writable).
 
     Raises
     ------
@@ -246,7 +290,10 @@ def build_cuda(walk_kind: int, dist_kind: int, facet_kind: int, facet_variant: i
     """
     key = (int(walk_kind), int(dist_kind), int(facet_kind), int(facet_variant))
     if key not in _KERNELS:
-        _KERNELS[key] = CudaKernel(cuda.jit(_kernel_function(*key)))
+        function = _kernel_function(*key)
+        # cached like the CPU loop (jit.njit): numba-cuda reads the same numba.config.CACHE_DIR,
+        # which jit sets to vcavity's folder while the decorator builds the cache locator
+        _KERNELS[key] = CudaKernel(cache.cached(cuda.jit, function) if cache.CACHE_ENABLED else cuda.jit(function))
     return _KERNELS[key]
 
 
@@ -266,4 +313,5 @@ def ptx(walk_kind: int, dist_kind: int, facet_kind: int, facet_variant: int, cc:
     return text
 
 
-__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "device_attributes", "ptx"]
+__all__ = ["CudaKernel", "N_STATS", "SIGNATURE", "SIMULATED", "arguments", "build_cuda", "device_attributes",
+           "free_memory", "launch_bytes", "ptx"]

@@ -85,7 +85,9 @@ class Walk:
     kernel : vcavity.kernels.loop.SlotKernel or vcavity.kernels.cuda_loop.CudaKernel
         The CPU's slot loop, or on ``"cuda"`` the CUDA kernel: both take a
         :class:`WalkCall` and give per-slot tallies (the kernel one slot row, its
-        ``n_slots`` unused).
+        ``n_slots`` unused). The CUDA kernel is built when first asked for, so that a
+        process that only sends the walk's work to GPU workers (``--dask``) needs no
+        numba-cuda.
     """
 
     def __init__(self, module, dist_kind: int, facet_kind: int, facet_variant: int, device: str = "cpu"):
@@ -95,20 +97,28 @@ class Walk:
         self.tallies = module.TALLIES
         self.stats = module.STATS
         self.device = device
-        kind = walk_registry.kind_of(module.NAME)
-        if device == "cuda":
+        self._key = (walk_registry.kind_of(module.NAME), dist_kind, facet_kind, facet_variant)
+        self._kernel = None if device == "cuda" else loop.build(*self._key)
+        self._prepare, self._dist_kind = module.prepare_direction, dist_kind
+
+    @property
+    def kernel(self):
+        """The compiled walk (class doc)."""
+        if self._kernel is None:
             from vcavity.kernels import cuda_loop  # numba-cuda is optional: loaded only for a GPU run
 
-            self.kernel = cuda_loop.build_cuda(kind, dist_kind, facet_kind, facet_variant)
-        else:
-            self.kernel = loop.build(kind, dist_kind, facet_kind, facet_variant)
-        self._prepare, self._dist_kind = module.prepare_direction, dist_kind
+            self._kernel = cuda_loop.build_cuda(*self._key)
+        return self._kernel
+
+    @kernel.setter
+    def kernel(self, kernel) -> None:  # a stand-in (tests)
+        self._kernel = kernel
 
     @property
     def compiled(self) -> bool:
         """Whether the walk is compiled (or loaded from the cache) in this process."""
         if self.device == "cuda":
-            return self.kernel.launched
+            return self._kernel is not None and self._kernel.launched
         return bool(self.kernel.walk.overloads)
 
     def device_attributes(self) -> dict:
@@ -133,6 +143,26 @@ class Walk:
         stats = {name: (per_slot[:, k].max() if name == "max_bounces" else per_slot[:, k].sum())
                  for k, name in enumerate(self.stats)}
         return tallies, stats
+
+
+def cuda_unavailable() -> str | None:
+    """Why this process cannot run the CUDA kernels, or None when it can (a GPU and its
+    driver, or numba's CUDA simulator); numba-cuda is imported here, only when asked
+    (:func:`vcavity.simulate.plan.cuda_unavailable`).
+
+    Returns
+    -------
+    str or None
+        One phrase: numba-cuda is not installed, or no CUDA device or driver is found.
+    """
+    try:
+        from vcavity.kernels import cuda_loop
+    except ImportError:
+        return "numba-cuda is not installed: pip install 'vcavity[cuda]'"
+    if cuda_loop.SIMULATED or cuda_loop.cuda.is_available():
+        return None
+    return ("numba-cuda finds no CUDA device or driver here (numba.cuda.is_available() is False; "
+            "the kernels need an NVIDIA GPU with a CUDA 13 driver)")
 
 
 def get(name: str, dist_kind: int, facet_kind: int, facet_variant: int, device: str = "cpu") -> Walk:
@@ -166,4 +196,4 @@ def get(name: str, dist_kind: int, facet_kind: int, facet_variant: int, device: 
     return Walk(module, dist_kind, facet_kind, facet_variant, device)
 
 
-__all__ = ["DEVICES", "Walk", "WalkCall", "get"]
+__all__ = ["DEVICES", "Walk", "WalkCall", "cuda_unavailable", "get"]

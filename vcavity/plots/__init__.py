@@ -224,10 +224,13 @@ def check_request(table, kind: str | None = None, output=None, theta_i_deg=None,
     return _check_table_request(table, module, output, theta_i_deg, orders, scale, models, overwrite)
 
 
-def render(table, request: PlotRequest):
-    """Draw and save (atomically) a checked request; returns the plotted data (module docstring)."""
+def render(table, request: PlotRequest, cancelled=None):
+    """Draw and save (atomically) a checked request; returns the plotted data (module docstring).
+
+    ``cancelled()``, if given, is asked just before the rename (as in
+    :func:`vcavity.io.atomic.replace_atomically`): True cancels the write."""
     fig, result = KIND_MODULES[request.kind].render(table, request)
-    save(fig, request.output)
+    save(fig, request.output, cancelled=cancelled)
     return result
 
 

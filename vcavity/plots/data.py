@@ -36,12 +36,16 @@ class SliceData:
     cells : ndarray of int64 (n, 2)
         The cells either side of the plane along each stretch (equal but on borders).
     brdf, stderr : dict
-        Order -> (n,) table values (1/sr) and standard errors along the stretches.
+        Order -> (n,) table values (1/sr) and standard errors along the stretches (of a
+        deterministic table, the model's error estimates: see ``model_error``).
     models : dict
         Model name (:data:`SLICE_MODELS`) -> (n,) its f1 cell averages (1/sr) along the
         stretches; missing where the model does not apply.
     notes : list of str
         Why a requested model is missing.
+    model_error : bool
+        The table is a deterministic model's (estimator exact): ``stderr`` holds the
+        model's own error estimate, not a statistical error.
     """
 
     index: int
@@ -53,6 +57,7 @@ class SliceData:
     stderr: dict
     models: dict = field(default_factory=dict)
     notes: list = field(default_factory=list)
+    model_error: bool = False
 
     @property
     def centers(self) -> np.ndarray:
@@ -139,7 +144,8 @@ def slice_data(table, index: int, orders, models=None, notes=()) -> SliceData:
             curves[name] = _along(per_cell, cells)
     return SliceData(index=int(index), theta_i_deg=float(table.theta_i_deg[index]),
                      phi_i_deg=float(table.phi_i_deg[index]), edges=segments.edges, cells=cells,
-                     brdf=brdf, stderr=stderr, models=curves, notes=list(notes))
+                     brdf=brdf, stderr=stderr, models=curves, notes=list(notes),
+                     model_error=bool(table.deterministic))
 
 
 @dataclass(frozen=True)
@@ -152,11 +158,16 @@ class AlbedoData:
         Incidence indices of each azimuth, sorted by theta_i.
     theta_i_deg : ndarray (n_i,)
     albedo, stderr : dict
-        Order -> (n_i,) albedo and binomial standard error ``sqrt(a (1 - a)/paths)``.
+        Order -> (n_i,) albedo and binomial standard error ``sqrt(a (1 - a)/paths)``; of a
+        deterministic table (``model_error``), the model's error of the albedo: its cells'
+        error estimates summed, ``sum_c brdf_stderr_c * projected solid angle_c``.
     share, share_stderr : ndarray (n_i,) or None
         ``(albedo_inf - albedo_1)/albedo_inf``, the fraction of the exiting light that
         bounced more than once, and its binomial standard error ``sqrt(s (1 - s)/n_inf)``
-        (the f1 exits are a subset of the n_inf exits); None without f_inf or f1.
+        (the f1 exits are a subset of the n_inf exits); None without f_inf or f1 (the
+        error also for a deterministic table).
+    model_error : bool
+        The table is a deterministic model's (estimator exact): no path, no statistical error.
     """
 
     groups: list
@@ -165,16 +176,22 @@ class AlbedoData:
     stderr: dict
     share: np.ndarray | None
     share_stderr: np.ndarray | None
+    model_error: bool = False
 
 
 def albedo_data(table, orders) -> AlbedoData:
     """Albedos and inter-reflection share of ``table`` (see :class:`AlbedoData`)."""
     paths = np.asarray(table.paths, dtype=np.float64)
+    model_error = bool(table.deterministic)  # no path traced: no binomial error, the model's own
     albedo, stderr = {}, {}
     for k in orders:
         a = np.asarray(table.albedo[:, table.order_index(int(k))], dtype=np.float64)
         albedo[int(k)] = a
-        stderr[int(k)] = np.sqrt(np.clip(a * (1.0 - a), 0.0, None) / paths)
+        if model_error:
+            cells = np.asarray(table.brdf_stderr[:, table.order_index(int(k))], dtype=np.float64)
+            stderr[int(k)] = cells @ np.asarray(table.sensor.cell_projected_solid_angle, dtype=np.float64)
+        else:
+            stderr[int(k)] = np.sqrt(np.clip(a * (1.0 - a), 0.0, None) / paths)
     share = share_stderr = None
     present = set(int(k) for k in table.order)
     if {0, 1} <= present:
@@ -183,7 +200,7 @@ def albedo_data(table, orders) -> AlbedoData:
         with np.errstate(divide="ignore", invalid="ignore"):
             share = np.where(a_inf > 0, (a_inf - a_1) / a_inf, np.nan)
             exits = a_inf * paths
-            share_stderr = np.sqrt(np.clip(share * (1.0 - share), 0.0, None) / exits)
+            share_stderr = None if model_error else np.sqrt(np.clip(share * (1.0 - share), 0.0, None) / exits)
     theta = np.asarray(table.theta_i_deg, dtype=np.float64)
     phi = np.round(np.asarray(table.phi_i_deg, dtype=np.float64), 9)
     groups = []
@@ -191,7 +208,7 @@ def albedo_data(table, orders) -> AlbedoData:
         members = np.flatnonzero(phi == value)
         groups.append((float(value), members[np.argsort(theta[members], kind="stable")]))
     return AlbedoData(groups=groups, theta_i_deg=theta, albedo=albedo, stderr=stderr, share=share,
-                      share_stderr=share_stderr)
+                      share_stderr=share_stderr, model_error=model_error)
 
 
 def warn(message: str) -> None:

@@ -58,7 +58,8 @@ def draw_slice(ax, data, scale: str = "log", legend: bool = False, title: str | 
             low = np.maximum(low, 1e-300)
         ax.stairs(high, data.edges, baseline=low, fill=True, color=colour, alpha=0.22, linewidth=0)
         ax.stairs(shown, data.edges, color=colour, linewidth=width, baseline=None)
-        ax.plot([], [], color=colour, linewidth=width, label=f"table {order_name(k)} (±2 s.e. band)")
+        band = "±2 model error band" if data.model_error else "±2 s.e. band"
+        ax.plot([], [], color=colour, linewidth=width, label=f"table {order_name(k)} ({band})")
         drawn.append(value)
     for name, curve in data.models.items():
         ax.stairs(curve, data.edges, baseline=None, linewidth=1.3, **MODEL_STYLES[name])
@@ -110,8 +111,10 @@ def slice_figure(table, datas, scale: str = "log") -> Figure:
         ax.set_visible(False)
     figure_legend(fig, axes[0])
     notes = sorted({note for d in datas for note in d.notes})
+    bands = ("±2 model errors (the exact model's own error estimate)" if any(d.model_error for d in datas)
+             else "±2 std. errors")
     fig.suptitle(f"{table.path.name}: {format_material(table.material)}\n"
-                 "in-plane slices, steps = sensor cells crossed by the plane, bands = ±2 std. errors"
+                 f"in-plane slices, steps = sensor cells crossed by the plane, bands = {bands}"
                  + ("\n" + "; ".join(notes) if notes else ""), fontsize=10)
     return fig
 
@@ -210,12 +213,14 @@ def albedo_figure(table, data, orders) -> Figure:
                           color=_colour(k), marker=markers[g % len(markers)], markersize=4, capsize=2,
                           label=f"{order_name(k)}{suffix}")
         if data.share is not None:
-            right.errorbar(theta, data.share[members], yerr=2.0 * data.share_stderr[members], color="tab:red",
+            share_error = None if data.share_stderr is None else 2.0 * data.share_stderr[members]
+            right.errorbar(theta, data.share[members], yerr=share_error, color="tab:red",
                            marker=markers[g % len(markers)], markersize=4, capsize=2,
                            label=f"(f_inf - f1) / f_inf{suffix}")
     left.set_xlabel("theta_i (deg)")
     left.set_ylabel("directional albedo (fraction of incident light)")
-    left.set_title("albedo per bounce order (error bars ±2 std. errors)", fontsize=9)
+    bars = "±2 model errors, the cells' error estimates summed" if data.model_error else "±2 std. errors"
+    left.set_title(f"albedo per bounce order (error bars {bars})", fontsize=9)
     left.set_xlim(-2.0, 92.0)
     left.set_ylim(bottom=0.0)
     left.legend(fontsize=7)

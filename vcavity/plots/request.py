@@ -92,12 +92,14 @@ def default_field(kind: str) -> str:
     return f"output (default: <input>_{kind}.png beside the input)"
 
 
-def save(fig, output: Path, dpi: int = 110) -> None:
-    """Save ``fig`` to ``output`` atomically (temporary file in the same folder, os.replace)."""
+def save(fig, output: Path, dpi: int = 110, cancelled=None) -> None:
+    """Save ``fig`` to ``output`` atomically (temporary file in the same folder, os.replace);
+    ``cancelled`` as in :func:`vcavity.io.atomic.replace_atomically`."""
     from vcavity.io.atomic import replace_atomically
 
     # the temporary file ends in .tmp: the format comes from the output's suffix
-    replace_atomically(output, lambda temporary: fig.savefig(temporary, format=output.suffix[1:].lower(), dpi=dpi))
+    replace_atomically(output, lambda temporary: fig.savefig(temporary, format=output.suffix[1:].lower(), dpi=dpi),
+                       cancelled=cancelled)
 
 
 def sort_orders(orders) -> tuple:

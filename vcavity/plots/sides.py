@@ -51,6 +51,9 @@ class Side:
     sensor : EqualAreaSensor
     compared : tuple of str
         Material keys the sweep axis compared sets (they differ by design); empty for a table.
+    deterministic : bool
+        A deterministic model's tabulation (estimator exact): ``brdf_stderr`` is the
+        model's own error estimate, not a statistical error.
     """
 
     label: str
@@ -66,6 +69,7 @@ class Side:
     paths: np.ndarray
     sensor: EqualAreaSensor
     compared: tuple = ()
+    deterministic: bool = False
 
     @property
     def theta_i(self) -> np.ndarray:
@@ -110,7 +114,8 @@ def table_side(table) -> Side:
                 estimator=table.estimator, theta_i_deg=np.asarray(table.theta_i_deg, np.float64),
                 phi_i_deg=np.asarray(table.phi_i_deg, np.float64), order=np.asarray(table.order, np.int64),
                 brdf=np.asarray(table.brdf), brdf_stderr=np.asarray(table.brdf_stderr),
-                albedo=np.asarray(table.albedo), paths=np.asarray(table.paths, np.float64), sensor=table.sensor)
+                albedo=np.asarray(table.albedo), paths=np.asarray(table.paths, np.float64), sensor=table.sensor,
+                deterministic=bool(table.deterministic))
 
 
 def _position(axis, text: str, option: str, name: str) -> int:
@@ -232,7 +237,8 @@ def _point_side(sweep, where: dict, compared: str, name: str) -> Side:
                 albedo=np.stack([data["albedo"][i] for i in indices]),
                 paths=np.array([data["paths"][i] for i in indices], dtype=np.float64),
                 sensor=EqualAreaSensor(int(sweep.attrs["sensor_resolution"])),
-                compared=tuple(key for key, *_ in axes[compared].paired) or (compared,))
+                compared=tuple(key for key, *_ in axes[compared].paired) or (compared,),
+                deterministic=bool(sweep.attrs.get("deterministic", 0)))
 
 
 __all__ = ["DEFAULT_VERSUS_AXIS", "Side", "differences_text", "sweep_sides", "table_side"]

@@ -113,7 +113,9 @@ def versus_figure(a, b, data, scale: str = "log") -> Figure:
         handles.append(Line2D([], [], color="0.2", markersize=4, **STYLES[s]))
         labels.append(f"{'AB'[s]}: {label}")
     handles.append(Line2D([], [], color="0.2", marker="o", markersize=4))
-    labels.append("B - A (±2 sigma, sigma = quadrature sum of both std. errors)")
+    models = " and ".join(name for name, side in zip("AB", (a, b)) if side.deterministic)
+    errors = f"errors ({models}: the exact model's own error estimate)" if models else "std. errors"
+    labels.append(f"B - A (±2 sigma, sigma = quadrature sum of both {errors})")
     fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 4), fontsize=8, frameon=False)
     shared = {k: v for k, v in a.material.items() if k not in data.differs and k not in a.compared}
     text = format_material(shared)
@@ -122,7 +124,8 @@ def versus_figure(a, b, data, scale: str = "log") -> Figure:
     title = f"A: {data.labels[0]}   B: {data.labels[1]}\n{text}"
     if data.differs:
         title += f"\nforced (--force): the materials differ in {differences_text(data.differs)}"
-    fig.suptitle(title + "\nbands and error bars ±2 standard errors; steps = sensor cells crossed by the plane",
+    fig.suptitle(title + f"\nbands and error bars ±2 {errors if models else 'standard errors'}; steps = sensor cells "
+                 "crossed by the plane",
                  fontsize=9)
     return fig
 

@@ -30,13 +30,18 @@ import logging
 import os
 import signal
 import threading
+import time
+
+#: Seconds of work a task aims at (docs/distributed.md, "How a run is cut").
+TASK_TARGET_S = 1.0
 
 #: per worker process: serialised run config -> Simulation
 _SIMULATIONS: dict[str, object] = {}
 
 
 def _execute_remote(config_json: str, threads: int, unit):
-    """Run one work unit on a worker (module level, so Dask can pickle it by name)."""
+    """Run one work unit on a worker (module level, so Dask can pickle it by name);
+    returns its outcome and the seconds it took (which size the next units)."""
     simulation = _SIMULATIONS.get(config_json)
     if simulation is None:
         from vcavity import config as config_mod
@@ -47,7 +52,67 @@ def _execute_remote(config_json: str, threads: int, unit):
         simulation.compile()
         _SIMULATIONS.clear()  # one run at a time per worker: free the previous kernel's state
         _SIMULATIONS[config_json] = simulation
-    return simulation.execute(unit)
+    t0 = time.perf_counter()
+    outcome = simulation.execute(unit)
+    return outcome, time.perf_counter() - t0
+
+
+def _cuda_status(needed_bytes: int) -> dict:
+    """On a worker: ``{"attributes": ...}`` of the GPU it would run the walk on (the table's
+    device attributes), or ``{"error": why it cannot}`` (module level, for ``client.run``)."""
+    try:
+        from vcavity.kernels.walks import cuda_unavailable  # (plan's: plan imports this module)
+
+        reason = cuda_unavailable()
+        if reason is not None:
+            return {"error": reason}
+        from vcavity.kernels import cuda_loop
+
+        attributes = cuda_loop.device_attributes()
+        free = cuda_loop.free_memory()
+    except Exception as exc:  # noqa: BLE001 - whatever stops it is the worker's answer
+        return {"error": f"{type(exc).__name__}: {(str(exc).splitlines() or [''])[0]}"}
+    if free is not None and needed_bytes > free:
+        return {"error": f"the GPU's tally needs about {needed_bytes / 2**20:,.2f} MiB, {free / 2**20:,.2f} MiB "
+                         f"free on {attributes['device_name']}"}
+    return {"attributes": attributes}
+
+
+def _local_gpus() -> list[str] | None:
+    """The GPUs of this machine a local cluster gives its workers, one each (their
+    ``CUDA_VISIBLE_DEVICES`` values), or None: none found, or numba's simulator (the
+    workers' check then says why)."""
+    try:
+        from vcavity.kernels import cuda_loop
+    except ImportError:
+        return None
+    if cuda_loop.SIMULATED or not cuda_loop.cuda.is_available():
+        return None
+    visible = os.environ.get("CUDA_VISIBLE_DEVICES")
+    devices = ([d.strip() for d in visible.split(",") if d.strip()] if visible is not None
+               else [str(k) for k in range(len(cuda_loop.cuda.gpus))])
+    return devices or None
+
+
+def _gpu_cluster(devices, **options):
+    """A ``distributed.LocalCluster`` of one single-threaded worker process per GPU in
+    ``devices``, each seeing its own (``CUDA_VISIBLE_DEVICES``), as dask-cuda's
+    ``LocalCUDACluster`` starts them."""
+    import copy
+
+    from distributed import LocalCluster
+
+    class OneWorkerPerGpu(LocalCluster):
+        def new_worker_spec(self):
+            used = {spec["options"]["env"]["CUDA_VISIBLE_DEVICES"] for spec in self.worker_spec.values()}
+            device = next(d for d in devices if d not in used)
+            spec = copy.deepcopy(self.new_spec)
+            spec["options"]["env"] = {**spec["options"].get("env", {}), "CUDA_VISIBLE_DEVICES": device}
+            return {f"gpu-{device}": spec}
+
+    cluster = OneWorkerPerGpu(n_workers=0, **options)
+    cluster.scale(len(devices))
+    return cluster
 
 
 #: the loggers quieted while an executor shuts down (a prefix of the logger's name)
@@ -160,14 +225,26 @@ class DaskExecutor:
         (default 1: one unit per core).
     in_flight : int, optional
         Units submitted ahead of the one being merged (default 4 per worker thread).
+    device : str
+        ``simulation.device`` of the runs: on ``"cuda"``, ``local:N`` starts one worker per
+        GPU of this machine (N at most their number; under numba's simulator, N workers).
+
+    Attributes
+    ----------
+    device_attributes : dict or None
+        What the tables record of the workers' GPUs (:meth:`check_cuda`); None: the walk's
+        device is this process's (a CPU run).
 
     Raises
     ------
     ImportError
         ``dask.distributed`` is not installed (``pip install 'vcavity[distributed]'``).
+    ValueError
+        ``local:N`` on ``"cuda"`` with more workers than GPUs here (one line).
     """
 
-    def __init__(self, address: str, threads_per_task: int = 1, in_flight: int | None = None):
+    def __init__(self, address: str, threads_per_task: int = 1, in_flight: int | None = None,
+                 device: str = "cpu"):
         try:
             from distributed import Client, LocalCluster
         except ImportError as exc:  # pragma: no cover - depends on the installation
@@ -176,6 +253,11 @@ class DaskExecutor:
 
         where, n_workers = parse_address(address)
         self.cluster = self.client = None
+        self.device_attributes = None
+        gpus = _local_gpus() if where == "local" and device == "cuda" else None
+        if gpus is not None and n_workers > len(gpus):
+            raise ValueError(f"with simulation.device = 'cuda', local:N starts one worker per GPU: N must be from 1 "
+                             f"to {len(gpus)} (the GPUs here)")
         if where == "local":
             # a Ctrl-C while the cluster starts waits for it (seconds), then closes it again:
             # a cluster left half started would leave its processes and semaphores behind
@@ -185,12 +267,13 @@ class DaskExecutor:
                         # no dashboard; the scheduler's HTTP server (health, metrics) still
                         # starts, by default on port 8787: on a free local port instead, so two
                         # runs at once do not print distributed's "Port 8787 is already in use"
-                        self.cluster = LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True,
-                                                    dashboard_address=None,
-                                                    scheduler_kwargs={"dashboard": False,
-                                                                      "dashboard_address": "127.0.0.1:0"},
-                                                    env={"NUMBA_NUM_THREADS": str(threads_per_task)})
+                        options = dict(threads_per_worker=1, processes=True, dashboard_address=None,
+                                       scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
+                                       env={"NUMBA_NUM_THREADS": str(threads_per_task)})
+                        self.cluster = (LocalCluster(n_workers=n_workers, **options) if gpus is None
+                                        else _gpu_cluster(gpus[:n_workers], **options))
                         self.client = Client(self.cluster)
+                        self.client.wait_for_workers(n_workers)
                 except BaseException:
                     self.close()
                     raise
@@ -209,6 +292,8 @@ class DaskExecutor:
         Units are drawn from ``units`` lazily, at most ``in_flight`` ahead of the one
         being merged, so a direction of 2^62 paths never materialises its unit list.
         """
+        # a task should take about a second on its worker: its overhead is milliseconds
+        simulation.chunks.aim(TASK_TARGET_S)
         config = simulation.config.to_dict()
         raw = {key: config[key] for key in ("material", "incidence", "simulation")}
         config_json = json.dumps(raw, sort_keys=True)
@@ -225,13 +310,36 @@ class DaskExecutor:
                 if not window:
                     return
                 unit, future = window.popleft()
-                yield unit, future.result()
+                outcome, seconds = future.result()
+                simulation.chunks.observe(unit.n_blocks, seconds)
+                yield unit, outcome
         finally:  # a stop between units: cancel what is still queued or running
             pending = [f for _, f in window if not f.done()]
             if pending:
                 with quiet_logs():
                     self._quiet_workers()
                     self.client.cancel(pending)
+
+    def check_cuda(self, needed_bytes: int = 0) -> None:
+        """Ask every worker whether it can run the CUDA walk (numba-cuda, a GPU, its free
+        memory for a launch's tally of ``needed_bytes``); keep what the tables record of
+        their GPUs in :attr:`device_attributes` (each value the workers' distinct ones, joined
+        by ``", "``).
+
+        Raises
+        ------
+        ValueError
+            One line: no worker is connected, or the first worker that cannot, and why.
+        """
+        answers = self.client.run(_cuda_status, int(needed_bytes))
+        if not answers:
+            raise ValueError("no Dask worker is connected to the scheduler")
+        for worker, answer in sorted(answers.items()):
+            if "error" in answer:
+                raise ValueError(f"worker {worker} (of {len(answers)}): {answer['error']}")
+        attributes = [answer["attributes"] for answer in answers.values()]
+        self.device_attributes = {"device": "cuda", **{
+            key: ", ".join(sorted({a[key] for a in attributes})) for key in attributes[0]}}
 
     def worker_pids(self) -> dict:
         """Worker address -> process id (for tests and diagnostics)."""

@@ -2,8 +2,9 @@
 chunk, merge integer tallies, report progress. No physics here and no I/O.
 
 Work is cut into RNG blocks of ``BLOCK_SIZE`` paths (see :mod:`vcavity.rng`); a chunk is a
-run of consecutive blocks handed to one walk call. Neither the chunk size nor the
-thread count changes a table: each block owns its random stream and counts are integers.
+run of consecutive blocks handed to one walk call, sized by time unless fixed
+(:mod:`vcavity.simulate.chunking`). Neither the chunk size nor the thread count changes a
+table: each block owns its random stream and counts are integers.
 What is traced and what the table holds is the estimator's (:mod:`vcavity.estimators`):
 its walk, the tally planes and statistics it keeps, its models and its values.
 """
@@ -32,11 +33,9 @@ from vcavity.rng import BLOCK_SIZE, direction_key
 from vcavity.sensor.directions import incident_vector
 from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate import state as run_state
+from vcavity.simulate.chunking import ChunkSizer
 from vcavity.simulate.state import RunState
 
-#: Default paths per kernel call: large enough to amortise the call, small enough for a
-#: lively progress bar (docs/performance.md: the per-call cost).
-DEFAULT_CHUNK_BLOCKS = 512
 #: Target-error runs decide whether to stop after every this many blocks (about 2.6e5
 #: paths): part of the definition of such a run, like BLOCK_SIZE (not tied to chunking).
 TARGET_CHECK_BLOCKS = 64
@@ -88,7 +87,9 @@ class Simulation:
         Threads (default: all cores): the walk's slots, one thread each, and the analytic
         models' Numba threads. Does not change the result.
     chunk_blocks : int, optional
-        RNG blocks per walk call. Does not change the result.
+        RNG blocks per walk call; default sized to about half a second of work per call
+        (a second on a GPU; :class:`vcavity.simulate.chunking.ChunkSizer`). Does not change
+        the result.
 
     Attributes
     ----------
@@ -105,9 +106,10 @@ class Simulation:
         self.threads = int(threads) if threads else numba.config.NUMBA_NUM_THREADS
         if not 1 <= self.threads <= numba.config.NUMBA_NUM_THREADS:
             raise ValueError(f"threads = {threads}: must be in [1, {numba.config.NUMBA_NUM_THREADS}]")
-        self.chunk_blocks = int(chunk_blocks) if chunk_blocks else DEFAULT_CHUNK_BLOCKS
-        if self.chunk_blocks < 1:
+        if chunk_blocks is not None and int(chunk_blocks) < 1:
             raise ValueError(f"chunk_blocks = {chunk_blocks}: must be >= 1")
+        #: blocks per walk call (a fixed ``chunk_blocks``, else sized by time)
+        self.chunks = ChunkSizer(chunk_blocks, device=config.device, n_slots=self.threads)
         self.estimator = estimators.get(config.estimator)
         self.scene = Scene.of(config.material)
         self.sensor = EqualAreaSensor(config.sensor_resolution)
@@ -125,6 +127,7 @@ class Simulation:
                                  f"{walk_name!r} does not give")
         self.compile_time_s = 0.0
         self.last_state: RunState | None = None  # the state of the last finished run
+        self.workers_device: dict | None = None  # a cluster's GPUs ran the walk: what the table records of them
 
     @property
     def kernel(self):
@@ -241,7 +244,9 @@ class Simulation:
             execute them here, one after the other.
         """
         run_units = executor if executor is not None else _execute_here
-        if self.compile_time_s == 0.0:
+        # an executor whose workers' GPUs run the walk (DaskExecutor.check_cuda): compiled there
+        self.workers_device = getattr(executor, "device_attributes", None)
+        if self.compile_time_s == 0.0 and self.workers_device is None:
             self.compile()
         self.prepare_models(should_stop)
         numba.set_num_threads(self.threads)
@@ -252,6 +257,8 @@ class Simulation:
         last_checkpoint = t0
         for j, d in enumerate(c.incidence):
             budget = c.path_budget(d)
+            if j > 0 and not state.finished[j]:
+                self.chunks.new_direction()
             while not state.finished[j]:
                 results = run_units(self, self.plan(j, state))
                 for unit, outcome in results:
@@ -288,10 +295,14 @@ class Simulation:
 
     def plan(self, j: int, state: RunState):
         """The work units of direction ``j`` from where ``state`` stands to its next check,
-        in block order: ``chunk_blocks`` blocks each (generated lazily: budgets reach 2^62)."""
-        done = int(state.done_blocks[j])
-        check = self._check_block(j, done)
-        return (WorkUnit(j, first, min(self.chunk_blocks, check - first)) for first in range(done, check, self.chunk_blocks))
+        in block order, each of :attr:`chunks`' size when it is drawn (generated lazily:
+        budgets reach 2^62, and a unit's size follows the throughput of those before it)."""
+        first = int(state.done_blocks[j])
+        check = self._check_block(j, first)
+        while first < check:
+            n_blocks = min(self.chunks.blocks, check - first)
+            yield WorkUnit(j, first, n_blocks)
+            first += n_blocks
 
     def merge(self, state: RunState, unit: WorkUnit, outcome) -> None:
         """Add a unit's outcome to ``state`` (units of a direction arrive in block order, so
@@ -338,7 +349,7 @@ class Simulation:
             reached = state.reached.copy() if self.walk is not None else self.models.reached()
         compute_time_s = state.compute_time_s if self.walk is not None else self.model_time_s
         # a model's table is computed on the CPU, whatever the config's device
-        device = self.walk.device_attributes() if self.walk is not None else {"device": "cpu"}
+        device = {"device": "cpu"} if self.walk is None else self.workers_device or self.walk.device_attributes()
         return tabulate(self.config, self.sensor, self.estimator, state.tally, state.stats, paths, self.models,
                         reached, compute_time_s=compute_time_s, compile_time_s=self.compile_time_s,
                         block_size=BLOCK_SIZE, device=device)
@@ -346,9 +357,12 @@ class Simulation:
 
 def _execute_here(simulation: Simulation, units):
     """The local executor: each unit in turn, in this process (a generator, so a stop
-    between units leaves the rest untraced)."""
+    between units leaves the rest untraced); each call's time sizes the next."""
     for unit in units:
-        yield unit, simulation.execute(unit)
+        t0 = time.perf_counter()
+        outcome = simulation.execute(unit)
+        simulation.chunks.observe(unit.n_blocks, time.perf_counter() - t0)
+        yield unit, outcome
 
 
 def _merge_stats(total: np.ndarray, part: np.ndarray, names) -> None:

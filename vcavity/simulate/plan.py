@@ -5,9 +5,10 @@ options); :func:`plan_run` checks it against the machine and the file system and
 a :class:`RunPlan`, or raises :class:`PlanError` with one line naming the flag or field as
 the user wrote it, the value and what is accepted: the output path (links, folders,
 FIFOs, the config itself, an existing file without ``--overwrite``, a folder that does not
-exist or takes no file), the checkpoint (resumed, refused, or another run's), the
-threads, the Dask address's form, the device (:func:`check_device`), the estimator's own
-refusals (a model's table has nothing to distribute), the memory and the disk space. A
+exist or takes no file), the output's writer lock (another run or sweep writing it:
+:mod:`vcavity.io.lock`), the checkpoint (resumed, refused, or another run's), the threads,
+the Dask address's form, the device (:func:`check_device`), the estimator's own refusals
+(a model's table has nothing to distribute), the memory and the disk space. A
 sweep makes the same checks of its points (:mod:`vcavity.sweep.run`, ``vcavity sweep``):
 :func:`check_threads`, :func:`check_dask_address`, :func:`check_device`,
 :func:`check_dask_work`.
@@ -87,6 +88,8 @@ class RunPlan:
         Stale temporary files of interrupted writes, removed from the output's folder.
     resume_note : str or None
         What ``--resume`` found (no checkpoint yet, or how far the run got).
+    lock_note : str or None
+        The stale writer lock of a gone process that this run took over, if any.
     """
 
     request: RunRequest
@@ -96,6 +99,7 @@ class RunPlan:
     state: run_state.RunState | None = None
     removed: tuple[Path, ...] = ()
     resume_note: str | None = None
+    lock_note: str | None = None
 
     @property
     def traces(self) -> bool:
@@ -150,22 +154,19 @@ def cuda_unavailable() -> str | None:
     str or None
         One phrase: numba-cuda is not installed, or no CUDA device or driver is found.
     """
-    try:
-        from vcavity.kernels import cuda_loop
-    except ImportError:
-        return "numba-cuda is not installed: pip install 'vcavity[cuda]'"
-    if cuda_loop.SIMULATED or cuda_loop.cuda.is_available():
-        return None
-    return ("numba-cuda finds no CUDA device or driver here (numba.cuda.is_available() is False; "
-            "the kernels need an NVIDIA GPU with a CUDA 13 driver)")
+    from vcavity.kernels import walks
+
+    return walks.cuda_unavailable()
 
 
 def check_device(config: RunConfig, dask: str | None = None) -> None:
     """Whether the run's walk can run on ``config.device``, before anything compiles.
 
     The CPU always can. CUDA refuses, in this order: an estimator that traces no path, a
-    weighted walk (the paper estimator's), ``--dask``, numba-cuda not installed, and no
-    CUDA device or driver (:func:`cuda_unavailable`).
+    weighted walk (the paper estimator's), numba-cuda not installed, and no CUDA device or
+    driver (:func:`cuda_unavailable`). With ``--dask`` the walk runs on the workers' GPUs,
+    not here: the last two are asked of every worker once connected
+    (:func:`vcavity.simulate.service.check_workers`).
 
     Raises
     ------
@@ -186,12 +187,37 @@ def check_device(config: RunConfig, dask: str | None = None) -> None:
         unweighted = ", ".join(m.NAME for m in walks.MODULES if not m.WEIGHTED)
         raise PlanError(f"{field}: the {config.estimator} estimator runs on the CPU only: its walk is weighted "
                         f"(the GPU runs the unweighted walks: {unweighted})")
-    if dask is not None:
-        raise PlanError(f"{field}: GPUs with Dask (--dask) are not supported yet; run without --dask, or on the "
-                        "CPU")
+    if dask is not None:  # the workers' GPUs run the walk (asked once connected)
+        return
     reason = cuda_unavailable()
     if reason is not None:
         raise PlanError(f"{field}: {reason}")
+
+
+def check_device_memory(config: RunConfig, n_cells: int, dask: str | None = None) -> None:
+    """On ``device = "cuda"`` here (not ``--dask``: each worker checks its own GPU), whether
+    a launch's tally fits in the GPU's free memory (:func:`vcavity.kernels.cuda_loop.launch_bytes`);
+    nothing to check under the simulator. Call after :func:`check_device`.
+
+    Raises
+    ------
+    PlanError
+        Naming ``simulation.sensor_resolution`` and ``max_order``, with the figures.
+    """
+    if config.device != "cuda" or dask is not None:
+        return
+    from vcavity.kernels import cuda_loop
+
+    free = cuda_loop.free_memory()
+    if free is None:  # the simulator: no device
+        return
+    needed = cuda_loop.launch_bytes(config.max_order, n_cells)
+    if needed > free:
+        name = cuda_loop.device_attributes()["device_name"]
+        raise PlanError(f"simulation.sensor_resolution = {config.sensor_resolution} with max_order = "
+                        f"{config.max_order}: the GPU's tally needs about {needed / 2**20:,.2f} MiB "
+                        f"({config.max_order + 1} orders x {n_cells:,} cells), {free / 2**20:,.2f} MiB free on "
+                        f"{name}; accepted: a run that fits (lower sensor_resolution or max_order)")
 
 
 def check_dask_work(config: RunConfig, dask: str | None) -> None:
@@ -207,8 +233,13 @@ def check_dask_work(config: RunConfig, dask: str | None) -> None:
                         "nothing to distribute")
 
 
-def plan_run(request: RunRequest) -> RunPlan:
+def plan_run(request: RunRequest, locks=None) -> RunPlan:
     """Every check of a run, in the order a user fixes them (module doc).
+
+    With ``locks`` (a :class:`contextlib.ExitStack`) the output's writer lock
+    (:mod:`vcavity.io.lock`: ``OUT.h5.lock``, covering the table and its checkpoint) is
+    taken once the path is known to be a possible output, before the checkpoint is read,
+    and held until ``locks`` closes: a second run or sweep writing the same file is refused.
 
     Raises
     ------
@@ -218,8 +249,10 @@ def plan_run(request: RunRequest) -> RunPlan:
     cfg = request.config
     try:
         out = preflight.resolve_output(request.output, cfg.output, request.config_file)
+        preflight.check_output(out, request.config_file, True)  # links, folders, FIFOs, the config itself
+        held = preflight.lock_output(out, locks) if locks is not None else None
         resuming = request.resume and checkpoint.checkpoint_path(out.path).exists()
-        preflight.check_output(out, request.config_file, request.overwrite or resuming)
+        preflight.check_output(out, request.config_file, request.overwrite or resuming)  # and an existing table
         # without --overwrite, resume replaces only its own run's table (say, written just
         # before a kill that left the checkpoint): never what was put there meanwhile
         what = (checkpoint.foreign_output(out.path, cfg.to_dict()) if resuming and not request.overwrite
@@ -234,6 +267,7 @@ def plan_run(request: RunRequest) -> RunPlan:
         estimator = estimators.get(cfg.estimator)
         n_cells = EqualAreaSensor(cfg.sensor_resolution).n_cells
         preflight.check_memory(cfg, threads, n_cells, len(estimator.TALLIES))
+        check_device_memory(cfg, n_cells, request.dask)
         removed = preflight.probe_output(out)  # creates and removes a file: /proc, /sys, read-only
         preflight.check_disk_space(out, preflight.table_bytes(len(cfg.incidence), len(cfg.orders), n_cells))
     except preflight.PreflightError as exc:
@@ -241,7 +275,7 @@ def plan_run(request: RunRequest) -> RunPlan:
     config = dataclasses.replace(cfg, output=out.path.resolve())  # the table records where it was written
     state, note = _start(request, config, out.path, n_cells)
     return RunPlan(request=request, config=config, output=out, threads=threads, state=state,
-                   removed=tuple(removed), resume_note=note)
+                   removed=tuple(removed), resume_note=note, lock_note=held.note() if held is not None else None)
 
 
 def _start(request: RunRequest, config: RunConfig, output: Path, n_cells: int):
@@ -271,5 +305,5 @@ def _start(request: RunRequest, config: RunConfig, output: Path, n_cells: int):
     return state, f"resuming from {path} ({int(state.paths_done(config).sum()):,} of {planned:,} paths done)"
 
 
-__all__ = ["PlanError", "RunPlan", "RunRequest", "check_dask_address", "check_device", "check_threads",
-           "cuda_unavailable", "plan_run"]
+__all__ = ["PlanError", "RunPlan", "RunRequest", "check_dask_address", "check_device", "check_device_memory",
+           "check_threads", "cuda_unavailable", "plan_run"]

@@ -61,11 +61,14 @@ def prepare(plan: RunPlan, say: Callable[[str], None]):
 
     cfg = plan.config
     simulation = Simulation(cfg, threads=plan.threads, chunk_blocks=plan.request.chunk_blocks)
-    with CompileNotice(Variant.of_material(cfg.material).label):  # a line only when it takes a while
-        compile_s = simulation.compile()
-    raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
-    if simulation.walk is not None:
-        say(f"kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)")
+    if simulation.walk is not None and cfg.device == "cuda" and plan.request.dask is not None:
+        say("the CUDA kernel is compiled (or loaded from their cache) on the Dask workers")  # not here: no GPU needed
+    else:
+        with CompileNotice(Variant.of_material(cfg.material).label):  # a line only when it takes a while
+            compile_s = simulation.compile()
+        raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
+        if simulation.walk is not None:
+            say(f"kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)")
     if simulation.models is not None:
         code = simulation.models.CODE
         with CompileNotice(Variant.of_material(cfg.material).label, code=code):
@@ -153,21 +156,51 @@ def execute(plan: RunPlan, simulation, say: Callable[[str], None], progress: Pro
     return table
 
 
-def connect(address: str):
-    """The Dask executor of ``--dask ADDRESS`` (:class:`vcavity.simulate.dask.DaskExecutor`).
+def connect(address: str, config=None):
+    """The Dask executor of ``--dask ADDRESS`` (:class:`vcavity.simulate.dask.DaskExecutor`),
+    its workers checked for ``config``'s device (:func:`check_workers`).
 
     Raises
     ------
     PlanError
-        No ``dask.distributed``, or no scheduler answers (one line).
+        No ``dask.distributed``, no scheduler answers, or the workers cannot run the
+        walk on the config's device (one line).
     """
     from vcavity.simulate.dask import DaskExecutor, parse_address
 
+    device = "cpu" if config is None else config.device
     try:
         parse_address(address)
-        return DaskExecutor(address)
+        executor = DaskExecutor(address, device=device)
     except (ValueError, ImportError, OSError) as exc:
         raise PlanError(f"--dask = {address!r}: {_first_line(exc)}") from None
+    try:
+        if config is not None:
+            check_workers(executor, config, address)
+    except BaseException:
+        executor.close()
+        raise
+    return executor
 
 
-__all__ = ["Progress", "connect", "execute", "prepare"]
+def check_workers(executor, config, address: str) -> None:
+    """On ``config.device = "cuda"``: whether every Dask worker can run the CUDA walk
+    (numba-cuda, a GPU, room for a launch's tally), before anything is traced; the tables
+    then record the workers' GPUs (:meth:`vcavity.simulate.dask.DaskExecutor.check_cuda`).
+
+    Raises
+    ------
+    PlanError
+        ``simulation.device = 'cuda': the Dask workers (--dask = '...') cannot run it: worker ...: why``.
+    """
+    if config.device != "cuda":
+        return
+    n_cells = config.sensor_resolution ** 2
+    try:
+        executor.check_cuda(8 * (config.max_order + 1) * n_cells)
+    except (ValueError, OSError) as exc:
+        raise PlanError(f"simulation.device = {config.device!r}: the Dask workers (--dask = {address!r}) cannot run "
+                        f"it: {_first_line(exc)}") from None
+
+
+__all__ = ["Progress", "check_workers", "connect", "execute", "prepare"]

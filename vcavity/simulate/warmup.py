@@ -95,12 +95,16 @@ def _example_values(module) -> dict:
     return {spec.keys[0]: spec.example for spec in module.PARAMETERS}
 
 
-def compile_variant(variant: Variant) -> tuple[float, bool]:
+def compile_variant(variant: Variant, device: str = "cpu") -> tuple[float, bool]:
     """Compile ``variant`` into the cache, or load it from there.
 
     Parameters
     ----------
     variant : Variant
+    device : str
+        ``"cpu"`` (the slot loop) or ``"cuda"`` (the CUDA kernel, :mod:`vcavity.kernels.cuda_loop`:
+        the caller checks first that this process can run it,
+        :func:`vcavity.simulate.plan.cuda_unavailable`).
 
     Returns
     -------
@@ -120,10 +124,17 @@ def compile_variant(variant: Variant) -> tuple[float, bool]:
     # the run's own call (Simulation.compile), with this variant's walk and scene: the
     # cached signature is the one a run asks for
     simulation.scene = Scene(dist_kind, params, facet_kind, index, data)
-    simulation.walk = walks.get(variant.microsurface, dist_kind, facet_kind, index)
-    misses = sum(simulation.kernel.walk.stats.cache_misses.values())  # the dispatcher is shared per process
+    simulation.walk = walks.get(variant.microsurface, dist_kind, facet_kind, index, device=device)
+    misses = _compiles(simulation.kernel)  # the dispatcher is shared per process
     seconds = simulation.compile()
-    return seconds, sum(simulation.kernel.walk.stats.cache_misses.values()) == misses
+    return seconds, _compiles(simulation.kernel) == misses
+
+
+def _compiles(kernel) -> int:
+    """Compiles so far of a walk's kernel in this process (a cache load is none)."""
+    if hasattr(kernel, "compiles"):  # the CUDA kernel (cuda_loop.CudaKernel)
+        return kernel.compiles
+    return sum(kernel.walk.stats.cache_misses.values())
 
 
 @dataclass(frozen=True)

@@ -90,11 +90,14 @@ def sweep_bytes(sweep: Sweep) -> int:
 
 
 def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, overwrite: bool = False,
-                resume: bool = False, threads: int | None = None):
+                resume: bool = False, threads: int | None = None, locks=None):
     """Every check of a sweep that can fail, before anything is traced.
 
     Returns ``(output, data, note)``: the :class:`~vcavity.io.preflight.Output`, the sweep
     state to start from (a resumed file's, or empty) and a note for the user (or None).
+    With ``locks`` (a :class:`contextlib.ExitStack`) the output's writer lock
+    (:mod:`vcavity.io.lock`) is taken before the file is read and held until ``locks``
+    closes: a second writer of the same file is refused here, naming the holder.
 
     Raises
     ------
@@ -106,6 +109,8 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
                          "--overwrite starts it again)")
     out = preflight.resolve_output(option, sweep.output, sweep_file)
     preflight.check_output(out, sweep_file, True)  # links, folders, FIFOs, the sweep file itself
+    # the lock first: another writer's file is neither judged nor read while it is written
+    held = preflight.lock_output(out, locks) if locks is not None else None
     exists = out.path.exists()
     if exists and not (resume or overwrite):
         raise out.fail("exists; pass --resume to continue its sweep or --overwrite to start it again")
@@ -113,8 +118,9 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
     first = sweep.points[0].config
     n_cells = first.sensor_resolution ** 2
     tallies = len(estimators.get(first.estimator).TALLIES)
-    needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(
-        sweep.n_directions, len(first.orders), first.max_order, n_cells, threads, tallies)
+    needed = 2 * sweep_bytes(sweep) + preflight.run_memory_bytes(  # on CUDA one tally set, not one per thread
+        sweep.n_directions, len(first.orders), first.max_order, n_cells, 1 if first.device == "cuda" else threads,
+        tallies)
     available = preflight.available_memory()
     if available is not None and needed > available:
         raise preflight.PreflightError(
@@ -123,19 +129,23 @@ def plan_output(sweep: Sweep, option: str | None, sweep_file: str | None, *, ove
             f"{sweep.n_directions} direction(s) x {len(first.orders)} orders x {n_cells:,} cells), "
             f"{available / 1024**3:,.2f} GB available; accepted: a sweep that fits (fewer points, lower "
             "sensor_resolution or max_order)")
-    note = None
+    note = held.note() if held is not None else None
     data = resume_data(sweep, out.path, out.shown, out.field) if resume and exists else sweep.new_data()
     if resume and not exists:
-        note = f"{out.shown}: nothing to resume yet, starting the sweep"
+        note = _join(note, f"{out.shown}: nothing to resume yet, starting the sweep")
     if data.rejected:
-        note = (f"{out.shown}: {len(data.rejected)} point(s) marked done fail their checksum (a write cut "
-                "short or changed bytes); they are run again")
+        note = _join(note, f"{out.shown}: {len(data.rejected)} point(s) marked done fail their checksum (a write "
+                     "cut short or changed bytes); they are run again")
     removed = preflight.probe_output(out)
     preflight.check_disk_space(out, sweep_bytes(sweep))
     if removed:
-        extra = f"removed {len(removed)} stale temporary file(s) of interrupted writes"
-        note = extra if note is None else f"{note}; {extra}"
+        note = _join(note, f"removed {len(removed)} stale temporary file(s) of interrupted writes")
     return out, data, note
+
+
+def _join(note: str | None, extra: str) -> str:
+    """``note; extra``, or ``extra`` alone."""
+    return extra if note is None else f"{note}; {extra}"
 
 
 def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, chunk_blocks: int | None = None,
@@ -216,9 +226,15 @@ def _attach(output, data: SweepData) -> PointWriter | None:
         raise OSError(f"{output} changed since it was read ({exc}); it was not replaced") from None
 
 
+def traces(sweep: Sweep) -> bool:
+    """Whether any point of ``sweep`` traces paths (not so with the exact estimator: its
+    tables are the model's, and a sweep's progress is then counted in points)."""
+    return any(estimators.get(p.config.estimator).walk(p.config.material) is not None for p in sweep.points)
+
+
 def paths_done(sweep: Sweep, data: SweepData) -> int:
     """Paths of the points already done (where a progress bar starts)."""
     return sum(sweep.point_paths(p) for p in sweep.points if data.data["done"][p.index])
 
 
-__all__ = ["paths_done", "plan_output", "record", "resume_data", "run", "sweep_bytes"]
+__all__ = ["paths_done", "plan_output", "record", "resume_data", "run", "sweep_bytes", "traces"]

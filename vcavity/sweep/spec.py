@@ -129,7 +129,9 @@ class Sweep:
                  "sensor_partition": sensor.partition, "sensor_resolution": np.int64(sensor.resolution),
                  "n_cells": np.int64(sensor.n_cells),
                  "target_error": float("nan") if first.target_error is None else float(first.target_error),
-                 "overrides": overrides_text(self.overrides)}
+                 "overrides": overrides_text(self.overrides),
+                 # where its walks run (simulation.device, the same at every point: part of their configs)
+                 "device": "cpu" if estimators.get(first.estimator).walk(first.material) is None else first.device}
         data = SweepData(axes=self.axes, point_axes=self.point_axes, order=np.array(first.orders, np.int64),
                          cells=cells, attrs=attrs, material=_shared_material(self.points),
                          scalars=dict(self.scalars))
