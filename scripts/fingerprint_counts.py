@@ -47,7 +47,8 @@ FACETS = {
 }
 SPECULAR = ("mirror", "dielectric")
 #: Root attributes that change from run to run or name the machine's paths.
-VOLATILE = {"created_utc", "compute_time_s", "compile_time_s", "model_time_s", "vcavity_version", "config"}
+VOLATILE = {"created_utc", "compute_time_s", "compile_time_s", "model_time_s", "model_compile_time_s", "vcavity_version",
+            "config"}
 
 
 #: ``--extras``: runs beside the grid (name -> material, [simulation] keys): the stop rule of

@@ -19,7 +19,7 @@ from vcavity.cli import main
 from vcavity.facet import registry as facets
 from vcavity.kernels.trace import variants as kernel_variants
 from vcavity.microfacet import registry as distributions
-from vcavity.simulate.warmup import CompileNotice, Variant, compile_variant, variants
+from vcavity.simulate.warmup import MODELS, CompileNotice, Variant, compile_variant, variants
 
 
 def test_help_says_where_the_cache_is_and_what_is_safe(capsys):
@@ -38,6 +38,8 @@ def test_list_of_all_follows_the_kernels_and_the_registries(capsys):
     expected = [Variant("v-cavity", d, f, v).label for d, f, v in kernel_variants()]
     expected += [Variant("smith", d, f, v).label for d, f, v in kernel_variants()
                  if distributions.smith_walk_refusal(d) is None]
+    # and the models of every estimator that has models (the registry's), for each walk it takes
+    expected += ["exact estimator's models", "exact-f1 estimator's models", "exact-f1 estimator's models (smith walk)"]
     assert labels == expected
     assert len(set(labels)) == len(labels)  # every variant named apart
 
@@ -48,6 +50,66 @@ def test_one_axis_named_takes_every_value_of_the_others(capsys):
     il = facets.get("interfaced_lambertian").VARIANTS
     assert len(labels) == len(distributions.NAMES) * len(il)
     assert all(" x interfaced_lambertian" in label and "walk" not in label for label in labels)
+
+
+def test_models_alone_or_beside_variants(capsys):
+    assert main(["warmup", "--models", "--list"]) == 0
+    assert capsys.readouterr().out.splitlines() == [code.label for code in MODELS]
+    assert main(["warmup", "--models", "--facet", "mirror", "--distribution", "ggx", "--list"]) == 0
+    assert capsys.readouterr().out.splitlines() == ["ggx x mirror"] + [code.label for code in MODELS]
+    estimators = {code.estimator for code in MODELS}
+    assert estimators == {"exact", "exact-f1"}  # the estimators whose runs compile models
+
+
+def test_repeated_values_and_flags_are_merged(capsys):
+    """A flag given twice adds its values (argparse alone keeps the last one: ``--distribution
+    ggx --distribution beckmann`` silently dropped ggx); a value named twice counts once."""
+    argv = ["warmup", "--distribution", "ggx", "ggx", "--distribution", "beckmann", "ggx", "--facet", "mirror",
+            "--facet", "conductor", "mirror", "--microsurface", "v-cavity", "--microsurface", "v-cavity", "--list"]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.splitlines() == ["ggx x mirror", "ggx x conductor", "beckmann x mirror",
+                                                    "beckmann x conductor"]
+
+
+def _warmup_with(env_changes, *argv):
+    env = {**os.environ, **env_changes}
+    for name in [k for k, v in env.items() if v is None]:
+        del env[name]
+    return subprocess.run([sys.executable, "-m", "vcavity", "warmup", "-q", *argv], env=env, text=True,
+                          capture_output=True, timeout=600)
+
+
+def test_an_unusable_named_cache_is_one_line_naming_it(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    done = _warmup_with({"NUMBA_CACHE_DIR": str(blocker / "cache")}, "--distribution", "ggx", "--facet", "mirror")
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    assert done.stderr.splitlines() == [
+        f"vcavity: error: NUMBA_CACHE_DIR = '{blocker / 'cache'}': cannot hold files (Not a directory); warmup fills "
+        "the cache that runs with this NUMBA_CACHE_DIR read: name a writable folder, or unset it for the per-user "
+        "cache"]
+
+
+def test_no_writable_cache_at_all_is_one_line_naming_the_folders_tried(tmp_path):
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    uid = os.getuid() if hasattr(os, "getuid") else 0
+    done = _warmup_with({"NUMBA_CACHE_DIR": None, "HOME": str(blocker), "XDG_CACHE_HOME": None,
+                         "TMPDIR": str(blocker)}, "--models")
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("vcavity: error: no writable Numba cache folder: tried "), lines
+    for folder in (blocker / ".cache" / "vcavity", blocker / f"vcavity-numba-cache-{uid}"):
+        assert f"'{folder}" in lines[0], lines[0]
+    assert lines[0].endswith("; set NUMBA_CACHE_DIR to a writable folder")
+
+
+def test_with_the_jit_disabled_nothing_can_be_cached(tmp_path):
+    done = _warmup_with({"NUMBA_CACHE_DIR": str(tmp_path / "cache"), "NUMBA_DISABLE_JIT": "1"}, "--models")
+    assert done.returncode == 2 and done.stdout == "", done.stderr
+    assert done.stderr.splitlines() == ["vcavity: error: NUMBA_DISABLE_JIT = '1': nothing is compiled, so nothing "
+                                        "can be cached; unset it to fill the cache"]
+    assert not (tmp_path / "cache").exists() or not any((tmp_path / "cache").rglob("*.nbi"))
 
 
 #: distributions the Smith walk refuses (from the registry: the list changes as samplers arrive)
@@ -102,6 +164,14 @@ def test_notice_appears_only_for_a_slow_compile_and_ends_its_line(tty):
     assert ("\r" in out) == tty  # a terminal's line counts the seconds; a log gets one line
 
 
+def test_the_notice_promises_a_cache_only_where_there_is_one():
+    for cached, words in ((True, "(first use; cached afterwards)"), (False, "(not cached: compiled in every process)")):
+        stream = _Stream(False)
+        with CompileNotice("ggx x conductor", stream=stream, delay=0.01, code="every-order model", cached=cached):
+            _compiling(0.3)
+        assert stream.getvalue().startswith(f"vcavity: compiling the every-order model for ggx x conductor {words}")
+
+
 def test_an_interrupted_compile_ends_the_notice_line_before_the_interrupt():
     stream = _Stream(False)
     with pytest.raises(KeyboardInterrupt):
@@ -153,3 +223,22 @@ def test_two_warmups_at_once_leave_a_working_cache(tmp_path):
                          capture_output=True, timeout=600, env={**os.environ, "NUMBA_CACHE_DIR": str(cache)})
     assert run.returncode == 0 and "kernel ready" in run.stderr, run.stderr
     assert "compiling the kernel" not in run.stderr, run.stderr  # loaded: no notice
+
+
+@pytest.mark.slow
+def test_warmup_models_fills_a_cold_cache_that_exact_runs_then_load(tmp_path):
+    """Slow: the models' cold compile (a minute or more). Afterwards neither an exact nor an
+    exact-f1 run compiles its models (no notice) and both say their code was loaded."""
+    cache = tmp_path / "cache"
+    proc = _warmup(cache, "--models")
+    _, err = proc.communicate(timeout=1800)
+    assert proc.returncode == 0 and "3 model code(s) ready in" in err and f"in {cache}" in err, err
+    for estimator, extra in (("exact", ""), ("exact-f1", "paths = 20000\n")):
+        (tmp_path / "m.toml").write_text('[material]\ndistribution = "ggx"\nalpha = 0.3\nfacet = "conductor"\n'
+                                         f"[incidence]\ntheta_i_deg = [30]\n{extra}"
+                                         f'[simulation]\nsensor_resolution = 9\nestimator = "{estimator}"\n')
+        run = subprocess.run([sys.executable, "-m", "vcavity", "run", "m.toml", "-q", "-o", f"{estimator}.h5"],
+                             cwd=tmp_path, text=True, capture_output=True, timeout=900,
+                             env={**os.environ, "NUMBA_CACHE_DIR": str(cache)})
+        assert run.returncode == 0 and "model code ready" in run.stderr, run.stderr
+        assert "compiling the" not in run.stderr.replace("compiling the kernel", ""), run.stderr

@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from vcavity.analytic.batches import in_batches
 from vcavity.analytic.quadrature import (
     MAX_SPECULAR_SUB,
     MIN_SPECULAR_SUB,
@@ -37,6 +38,8 @@ from vcavity.analytic.peak_cells import peak_cells
 from vcavity.sensor.grid import EqualAreaSensor
 
 DEFAULT_BODY_SUB = 4
+#: Work (points x ``point_cost``) of the first batch of :func:`integrate_cells`.
+_FIRST_WORK = 1 << 22
 DEFAULT_SUB = 8
 #: Sub-points per roughness width across a cell (see specular_subpoints).
 SPECULAR_POINTS_PER_WIDTH = 6.0
@@ -65,8 +68,8 @@ def _hard_cells(cells, resolution):
 
 
 def integrate_cells(projected, incident, sensor, n_sub, cells, chunk_points=262144, kink_z=None, hard_sub=8,
-               corner_sub=16):
-    """``Σ_q w_q projected(i, o_q)`` per cell, in chunks of cells to bound memory.
+                    corner_sub=16, point_cost=1, should_stop=None):
+    """``Σ_q w_q projected(i, o_q)`` per cell, in batches of cells to bound memory and time.
 
     Diagonal and horizon cells (:func:`_hard_cells`) get at least 8 x 8 points: with
     4 x 4 the body term of the horizon corner cells was off by 1.6e-3 (2 x 2 points per
@@ -76,6 +79,11 @@ def integrate_cells(projected, incident, sensor, n_sub, cells, chunk_points=2621
     the off-diagonal cells that the circle ``z = kink_z`` crosses are cut along it
     (:func:`~vcavity.analytic.quadrature.radius_split_quadrature`, ``max(n_sub, hard_sub)``
     points on each side).
+
+    A batch holds at most ``chunk_points`` points; the first is sized by ``point_cost``
+    (the work of one point, e.g. the body's nodes over ``m``) and the later ones by time
+    (:func:`vcavity.analytic.batches.in_batches`, ``should_stop`` polled between them).
+    Each cell's sum is its own, so the batches do not change the result.
     """
     cells = np.arange(sensor.n_cells) if cells is None else np.asarray(cells, dtype=np.int64)
     out = np.empty(cells.size)
@@ -95,15 +103,19 @@ def integrate_cells(projected, incident, sensor, n_sub, cells, chunk_points=2621
                         (corner, max(n_sub, corner_sub)),
                         (split, max(n_sub, hard_sub) if kink_z is not None else n_sub)):
         positions = np.flatnonzero(group)
-        per_chunk = max(1, chunk_points // (2 * size * size))
-        for start in range(0, positions.size, per_chunk):
-            chosen = positions[start:start + per_chunk]
+        points = 2 * size * size  # per cell, at most (a split cell's two sides)
+
+        def batch(start, stop, group=group, size=size, positions=positions):
+            chosen = positions[start:stop]
             if group is split:
                 directions, weights = radius_split_quadrature(sensor, int(size), cells[chosen], radius)
             else:
                 directions, weights = subcell_quadrature(sensor, int(size), cells=cells[chosen])
             values = projected(incident, directions.reshape(-1, 3)).reshape(weights.shape)
             out[chosen] = np.sum(values * weights, axis=1)
+
+        in_batches(positions.size, _FIRST_WORK // (points * max(int(point_cost), 1)), batch, should_stop,
+                   maximum=max(1, chunk_points // points))
     return out
 
 

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from vcavity.analytic.batches import check_stop
 from vcavity.analytic.cells import DEFAULT_BODY_SUB, integrate_cells
 from vcavity.analytic.quadrature import MIN_SPECULAR_SUB
 from vcavity.analytic.single_bounce import ModelNotApplicable, SingleBounceModel
@@ -70,7 +71,7 @@ F1_MASKING = {"v-cavity": "vcavity", "smith": "smith-hc"}
 
 def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
                       n_nodes: int = START_BODY_NODES, n_sub_body: int = DEFAULT_BODY_SUB,
-                      n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True):
+                      n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True, should_stop=None):
     """Per-cell integrals of the single-bounce model of the material's microsurface (the
     V-cavity model, or the height-correlated Smith model for a Smith microsurface:
     :data:`F1_MASKING`) and their error estimates.
@@ -92,6 +93,8 @@ def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
     refine : bool, keyword-only
         Refine the cells above tolerance (default); ``False`` returns the starting rules'
         values and estimates unchanged.
+    should_stop : callable, keyword-only
+        Polled between the model's short compiled calls (:mod:`vcavity.analytic.batches`).
 
     Returns
     -------
@@ -110,9 +113,11 @@ def f1_cell_integrals(material, incident, sensor: EqualAreaSensor, tolerance, *,
     ValueError
         A tolerance that is negative, NaN or of the wrong shape; a starting rule below 2;
         an incident direction not in the upper hemisphere.
+    vcavity.analytic.batches.ModelInterrupted
+        ``should_stop`` returned True.
     """
     model = CellModel(material, incident, sensor, tolerance, n_nodes=n_nodes, n_sub_body=n_sub_body,
-                      n_sub_specular=n_sub_specular, refine=refine)
+                      n_sub_specular=n_sub_specular, refine=refine, should_stop=should_stop)
     return model.values.copy(), model.error.copy()
 
 
@@ -137,7 +142,7 @@ class CellModel:
 
     def __init__(self, material, incident, sensor: EqualAreaSensor, tolerance, *,
                  n_nodes: int = START_BODY_NODES, n_sub_body: int = DEFAULT_BODY_SUB,
-                 n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True):
+                 n_sub_specular: int = MIN_SPECULAR_SUB, refine: bool = True, should_stop=None):
         incident = np.ascontiguousarray(incident, dtype=np.float64).reshape(3)
         if not incident[2] > 0.0:
             raise ValueError(f"incident = {incident.tolist()}: must point into the upper hemisphere (z > 0)")
@@ -150,25 +155,29 @@ class CellModel:
         model = SingleBounceModel(material, masking=self.masking, n_nodes=int(n_nodes))
         self.parts = []
         if model.has_specular:
-            self.parts.append(_Specular(model, incident, sensor, int(n_sub_specular), tol))
+            self.parts.append(_Specular(model, incident, sensor, int(n_sub_specular), tol, should_stop))
         if model.body_factor > 0.0:
-            self.parts.append(_Body(material, model, incident, sensor, int(n_nodes), int(n_sub_body)))
+            self.parts.append(_Body(material, model, incident, sensor, int(n_nodes), int(n_sub_body), should_stop))
         self.values, self.error = _total(self.parts, sensor)
         if refine:
             self._refine(tol)
 
-    def refine_to(self, tolerance) -> None:
+    def refine_to(self, tolerance, should_stop=None) -> None:
         """Refine the cells whose error exceeds ``tolerance`` (scalar or per cell), starting
         from the rules reached so far; each call may spend the work bounds afresh.
+        ``should_stop`` is polled as in :func:`f1_cell_integrals`.
 
         Raises
         ------
         ModelNotApplicable
             As :func:`f1_cell_integrals`; ``values`` and ``error`` then hold the finest
             rules reached (still a valid result with its error).
+        vcavity.analytic.batches.ModelInterrupted
+            ``should_stop`` returned True (the model is then half-refined: not to be used).
         """
         tol = _tolerance_array(tolerance, self.sensor)
         for part in self.parts:
+            part.should_stop = should_stop
             part.work = 0.0
             part.tighten(tol)
         self.values, self.error = _total(self.parts, self.sensor)
@@ -184,6 +193,7 @@ class CellModel:
             share = tol[over] / max(len(parts), 1)
             progressed = False
             for part in parts:
+                check_stop(part.should_stop)
                 progressed |= part.refine(over, part.errors_at(over) > share)
             self.values, self.error = _total(parts, sensor)
             if not progressed:
@@ -247,8 +257,9 @@ def guarded(difference, value, sensor, cells=None):
 class _Body:
     """Body term per cell at a node count and sub-cell rule, with its two estimates."""
 
-    def __init__(self, material, model, incident, sensor, n_nodes, n_sub):
+    def __init__(self, material, model, incident, sensor, n_nodes, n_sub, should_stop=None):
         self.material, self.incident, self.sensor = material, incident, sensor
+        self.should_stop = should_stop
         self.masking = model.masking
         self.models = {n_nodes: model}
         self.n_nodes = np.full(sensor.n_cells, n_nodes)
@@ -277,8 +288,10 @@ class _Body:
     def _body(self, n_nodes, n_sub, cells, coarse=False):
         """Body integrals; ``coarse`` halves the minimum rules of the hard cells too."""
         model = self._model(n_nodes)
+        # a point costs one term per node over m (2 n^2 of them): the batches are sized by it
         return integrate_cells(model.body_projected, self.incident, self.sensor, n_sub, cells,
-                          hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16)
+                               hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16,
+                               point_cost=2 * n_nodes * n_nodes, should_stop=self.should_stop)
 
     def refine(self, cells, wanted):
         """Double the larger-error rule of the ``wanted`` cells; False when none can be."""
@@ -319,8 +332,9 @@ class _Body:
 class _Specular:
     """Specular term: sub-cell rule outside the peak cells, peak rays inside."""
 
-    def __init__(self, model, incident, sensor, n_sub, tol):
+    def __init__(self, model, incident, sensor, n_sub, tol, should_stop=None):
         self.model, self.incident, self.sensor = model, incident, sensor
+        self.should_stop = should_stop
         self.peak = peak_cells(model, incident, sensor)
         self.value = np.zeros(sensor.n_cells)
         self.error = np.zeros(sensor.n_cells)
@@ -344,7 +358,8 @@ class _Specular:
         """Sub-cell rule of the specular term; ``coarse`` halves the hard cells' minimum rules."""
         kink = float(self.incident[2]) if self.model.masking == "vcavity" else None
         return integrate_cells(self.model.specular_projected, self.incident, self.sensor, n_sub, cells, kink_z=kink,
-                          hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16)
+                               hard_sub=4 if coarse else 8, corner_sub=8 if coarse else 16,
+                               should_stop=self.should_stop)
 
     def tighten(self, tol):
         """A tighter tolerance in a peak cell: recompute the peak rays to it (as a model
@@ -358,7 +373,7 @@ class _Specular:
     def _peak(self):
         self.value[self.peak], self.error[self.peak] = peak_integrals(
             self.model, self.incident, self.sensor, self.peak, n_radial=self.n_radial,
-            tolerance=max(self.peak_tolerance, 1e-300), with_error=True)
+            tolerance=max(self.peak_tolerance, 1e-300), with_error=True, should_stop=self.should_stop)
 
     def refine(self, cells, wanted):
         """Double the sub-cell rule of the wanted plain cells; refine the peak rays."""
@@ -386,5 +401,24 @@ class _Specular:
         return progressed
 
 
-__all__ = ["F1_MASKING", "f1_cell_integrals", "CellModel", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
+def compile_model(material) -> None:
+    """Compile (or load from the cache) the compiled functions a :class:`CellModel` of
+    ``material`` calls, on a sensor of 2 x 2 cells and the coarsest rules: what a run does
+    before its models, so that their time is the model's own (the compile's is reported
+    apart). The peak rays (:mod:`vcavity.analytic.specular_peak`) are compiled whenever
+    the facet has a specular term, whether or not this material's lobe needs them."""
+    sensor = EqualAreaSensor(2)
+    incident = np.array([0.6, 0.0, 0.8])
+    model = SingleBounceModel(material, masking=F1_MASKING[material.microsurface], n_nodes=2)
+    cells = np.arange(sensor.n_cells)
+    if model.has_specular:
+        peak_cells(model, incident, sensor)
+        integrate_cells(model.specular_projected, incident, sensor, 2, cells, kink_z=float(incident[2]))
+        peak_integrals(model, incident, sensor, cells[:1], n_azimuth=2, n_radial=2, tolerance=np.inf,
+                       with_error=True)
+    if model.body_factor > 0.0:
+        integrate_cells(model.body_projected, incident, sensor, 2, cells)
+
+
+__all__ = ["F1_MASKING", "f1_cell_integrals", "CellModel", "compile_model", "START_BODY_NODES", "MAX_REFINE_NODES", "MAX_SUB_BODY", "MAX_SUB", "MAX_RADIAL",
            "MAX_BODY_WORK", "MAX_SPECULAR_WORK", "guarded"]

@@ -24,10 +24,12 @@ from __future__ import annotations
 
 import math
 
+import numba
 import numpy as np
 from numba import prange
 
 from vcavity._numba.jit import njit
+from vcavity.analytic.batches import in_batches
 from vcavity.analytic.quadrature import MAX_STEP, STEP_CELLS
 from vcavity.analytic.terms import SMITH, VCAVITY, smith_lambda
 from vcavity.sensor.binning import direction_to_cell, hemisphere_to_square
@@ -41,6 +43,9 @@ _HASH_START = 1469598103934665603
 _HASH_PRIME = 1099511628211
 #: Parabolic steps that locate an extremum of ``u`` or ``v`` inside a step.
 EXTREMUM_STEPS = 3
+#: Rays of the first compiled call of :func:`_rays` and :func:`_signatures` (the later
+#: calls are sized by time, :mod:`vcavity.analytic.batches`).
+_FIRST_RAYS = 64
 
 
 # _point and _square are compiled once each and inlined by LLVM (``forceinline``), not
@@ -265,14 +270,30 @@ def _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_d
 
 
 def _rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
-          resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w):
-    """``w_k ray(u2_k)`` per node ``k`` and peak cell."""
-    return _walk_rays(u2_nodes, u2_weights, incident, kind, params, facet_kind, facet_data, masking, walter_fit,
-                      resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, True)[0]
+          resolution, slot_of_cell, n_slots, tan_stop, gl_x, gl_w, should_stop=None):
+    """``w_k ray(u2_k)`` per node ``k`` and peak cell, in batches of rays
+    (:func:`vcavity.analytic.batches.in_batches`: each ray is its own)."""
+    out = np.empty((u2_nodes.shape[0], n_slots))
+
+    def batch(start, stop):
+        out[start:stop] = _walk_rays(u2_nodes[start:stop], u2_weights[start:stop], incident, kind, params,
+                                     facet_kind, facet_data, masking, walter_fit, resolution, slot_of_cell, n_slots,
+                                     tan_stop, gl_x, gl_w, True)[0]
+
+    in_batches(u2_nodes.shape[0], _FIRST_RAYS, batch, should_stop, minimum=numba.get_num_threads())
+    return out
 
 
 def _signatures(u2_nodes, incident, kind, params, facet_kind, facet_data, masking, walter_fit, resolution,
-                slot_of_cell, tan_stop, gl_x, gl_w):
-    """The state hash of each ray (:func:`_walk` without integrating)."""
-    return _walk_rays(u2_nodes, np.ones_like(u2_nodes), incident, kind, params, facet_kind, facet_data, masking,
-                      walter_fit, resolution, slot_of_cell, 0, tan_stop, gl_x, gl_w, False)[1]
+                slot_of_cell, tan_stop, gl_x, gl_w, should_stop=None):
+    """The state hash of each ray (:func:`_walk` without integrating), in batches of rays."""
+    out = np.empty(u2_nodes.shape[0], dtype=np.int64)
+    weights = np.ones_like(u2_nodes)
+
+    def batch(start, stop):
+        out[start:stop] = _walk_rays(u2_nodes[start:stop], weights[start:stop], incident, kind, params, facet_kind,
+                                     facet_data, masking, walter_fit, resolution, slot_of_cell, 0, tan_stop, gl_x,
+                                     gl_w, False)[1]
+
+    in_batches(u2_nodes.shape[0], _FIRST_RAYS, batch, should_stop, minimum=numba.get_num_threads())
+    return out

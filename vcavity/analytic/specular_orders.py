@@ -39,12 +39,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numba import prange
 
 from vcavity._numba.arrays import filled
 from vcavity._numba.jit import njit
 from vcavity.analytic import specular_groove as sg
+from vcavity.analytic.batches import check_stop, in_batches
 from vcavity.analytic.single_bounce import ModelNotApplicable
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
@@ -69,26 +71,28 @@ _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
 _MAX_POLYGON = 12  # a triangle clipped by four half-planes has at most 7 corners
 _MAX_PARTS = 64  # cells of a triangle's box whose integrals are kept between the two passes
+#: Vertices of the first batch of a mesh's rows (later batches are sized by time).
+_FIRST_VERTICES = 1 << 14
 
 
 @njit(cache=True, parallel=True)
-def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, log_table, unit, max_bounces,
-              resolution, known_row, known_value, known_bounces, known_image):
-    """Per vertex ``(τ, u2)`` and slot: value (fraction · survival), bounce count (-1: no
-    such outcome) and the exit direction as a point of the sensor square in cell units.
+def _vertex_rows(value, bounces, image, first_row, last_row, taus, u2s, incident, dist_kind, params, facet_kind,
+                 facet_data, log_table, unit, max_bounces, resolution, known_row, known_value, known_bounces,
+                 known_image):
+    """Rows ``first_row .. last_row - 1`` of the vertex arrays ``value``, ``bounces`` and
+    ``image`` (per vertex ``(τ, u2)`` and slot: value (fraction · survival), bounce count
+    (-1: no such outcome) and the exit direction as a point of the sensor square in cell
+    units). Each row is computed on its own: any split into calls gives the same arrays.
 
     The vertices of the mesh of half the quads are among these (``known_row[r]``: the row of
     ``τ_r`` there, or -1; its ``u2`` nodes are every other one): they are copied from the
     ``known_*`` arrays, not evaluated again."""
-    n_tau, n_u2 = taus.size, u2s.size
-    # not np.zeros / np.full: under parallel=True each is a parallel loop of its own (one more
-    # gufunc to compile); each row is set in the prange loop instead
-    value = np.empty((n_tau, n_u2, sg.N_SLOTS))
-    bounces = np.empty((n_tau, n_u2, sg.N_SLOTS), np.int64)
-    image = np.empty((n_tau, n_u2, sg.N_SLOTS, 2))
+    n_u2 = u2s.size
     ix, iy, iz = incident[0], incident[1], incident[2]
     half_n = 0.5 * resolution
-    for r in prange(n_tau):
+    for r in prange(first_row, last_row):
+        # not np.zeros / np.full: under parallel=True each is a parallel loop of its own (one
+        # more gufunc to compile); each row is set here instead
         filled(value[r], 0.0)
         filled(bounces[r], -1)
         filled(image[r], 0.0)
@@ -118,7 +122,6 @@ def _vertices(taus, u2s, incident, dist_kind, params, facet_kind, facet_data, lo
                                             buf[slot, sg.EXIT_Z])
                 image[r, q, slot, 0] = (u + 1.0) * half_n
                 image[r, q, slot, 1] = (v + 1.0) * half_n
-    return value, bounces, image
 
 
 def tau_nodes(n_quads):
@@ -313,13 +316,14 @@ def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bou
 
 
 @njit(cache=True, parallel=True)
-def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, resolution):
-    """Cell integrals ``[(order, cell) ..., truncated]`` of the mesh, summed in a fixed order."""
+def _accumulate_chunks(partial, first_chunk, last_chunk, value, bounces, image, w_lo, w_hi, du2, max_order,
+                       max_bounces, resolution):
+    """Rows ``[(order, cell) ..., truncated]`` ``first_chunk .. last_chunk - 1`` of ``partial``
+    (zeros on entry): each chunk's rows of quads of the mesh, summed in a fixed order. The
+    chunks are :data:`N_CHUNKS` fixed ranges of rows, so any split into calls gives the same."""
     n_tau = value.shape[0] - 1
     n_u2 = value.shape[1] - 1
-    n_keys = (max_order + 1) * resolution * resolution + 1
-    partial = filled(np.empty((N_CHUNKS, n_keys)), 0.0)  # not np.zeros (_numba.arrays)
-    for chunk in prange(N_CHUNKS):
+    for chunk in prange(first_chunk, last_chunk):
         px = np.empty(_MAX_POLYGON)
         py = np.empty(_MAX_POLYGON)
         qx = np.empty(_MAX_POLYGON)
@@ -335,11 +339,6 @@ def _accumulate(value, bounces, image, w_lo, w_hi, du2, max_order, max_bounces, 
                 for slot in range(sg.N_SLOTS):
                     _quad(acc, value, bounces, image, r, q, slot, wl, wh, max_order, max_bounces, resolution,
                           px, py, qx, qy, parts, masses, counts)
-    out = filled(np.empty(n_keys), 0.0)
-    for chunk in range(N_CHUNKS):  # in chunk order, element by element (not `out += partial[chunk]`)
-        for key in range(n_keys):
-            out[key] += partial[chunk, key]
-    return out
 
 
 def is_specular(material) -> bool:
@@ -399,9 +398,14 @@ def _prepared(material):
     return kind, params, facet_kind, facet_data, log_table, unit
 
 
-def _mesh(prepared, incident, resolution, max_order, max_bounces, n_quads, known=None):
+def _mesh(prepared, incident, resolution, max_order, max_bounces, n_quads, known=None, should_stop=None):
     """Cell integrals of one mesh, and its vertices (``known``: those of the mesh of
-    ``n_quads / 2`` quads, reused)."""
+    ``n_quads / 2`` quads, reused).
+
+    The vertices are computed in batches of rows and the quads in batches of the
+    :data:`N_CHUNKS` chunks (:func:`vcavity.analytic.batches.in_batches`: short compiled
+    calls, ``should_stop`` polled between them); the result does not depend on the batches.
+    """
     kind, params, facet_kind, facet_data, log_table, unit = prepared
     n_quads = int(n_quads)
     taus = tau_nodes(n_quads)
@@ -414,12 +418,28 @@ def _mesh(prepared, incident, resolution, max_order, max_bounces, n_quads, known
     else:
         empty = np.zeros((0, 0, sg.N_SLOTS))
         known = (None, empty, empty.astype(np.int64), np.zeros((0, 0, sg.N_SLOTS, 2)))
-    value, bounces, image = _vertices(taus, u2s, np.ascontiguousarray(incident, dtype=np.float64), kind,
-                                      params, facet_kind, facet_data, log_table, unit, int(max_bounces),
-                                      int(resolution), known_row, *known[1:])
+    incident = np.ascontiguousarray(incident, dtype=np.float64)
+    value = np.empty((taus.size, u2s.size, sg.N_SLOTS))
+    bounces = np.empty((taus.size, u2s.size, sg.N_SLOTS), np.int64)
+    image = np.empty((taus.size, u2s.size, sg.N_SLOTS, 2))
+    threads = numba.get_num_threads()
+
+    def vertex_rows(first, last):
+        _vertex_rows(value, bounces, image, first, last, taus, u2s, incident, kind, params, facet_kind,
+                     facet_data, log_table, unit, int(max_bounces), int(resolution), known_row, *known[1:])
+
+    in_batches(taus.size, max(1, _FIRST_VERTICES // u2s.size), vertex_rows, should_stop, minimum=threads)
     w_lo, w_hi = tau_weights(taus)
-    integrals = _accumulate(value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order), int(max_bounces),
-                            int(resolution))
+    partial = np.zeros((N_CHUNKS, (int(max_order) + 1) * int(resolution) ** 2 + 1))
+
+    def chunks(first, last):
+        _accumulate_chunks(partial, first, last, value, bounces, image, w_lo, w_hi, 1.0 / n_quads, int(max_order),
+                           int(max_bounces), int(resolution))
+
+    in_batches(N_CHUNKS, threads, chunks, should_stop, minimum=threads)
+    integrals = np.zeros(partial.shape[1])
+    for chunk in range(N_CHUNKS):  # in chunk order, element by element: the same sums for any threads
+        integrals += partial[chunk]
     return integrals, (taus, value, bounces, image)
 
 
@@ -429,7 +449,7 @@ def mesh_integrals(material, incident, resolution, max_order, max_bounces, n_qua
 
 
 def specular_orders(material, incident, sensor, max_order, max_bounces, *, tolerance=DEFAULT_TOLERANCE,
-                    start_quads=START_QUADS, max_quads=MAX_QUADS, rows=None):
+                    start_quads=START_QUADS, max_quads=MAX_QUADS, rows=None, should_stop=None):
     """Cell integrals of every bounce order of a specular V-cavity, with error estimates.
 
     Parameters
@@ -453,6 +473,9 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
         The rows (``k - 1`` for order ``k``, ``max_order`` for the orders beyond) whose
         L1 change, relative to their own sum, the tolerance measures; default all rows,
         relative to what exits. (A test of one order needs that order's accuracy only.)
+    should_stop : callable, keyword-only
+        Polled between the short compiled calls of each mesh (:mod:`vcavity.analytic.batches`);
+        True stops the computation.
 
     Returns
     -------
@@ -462,6 +485,8 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
     ------
     ModelNotApplicable
         The facets are not specular, or the incident direction is at or below the horizon.
+    vcavity.analytic.batches.ModelInterrupted
+        ``should_stop`` returned True.
     """
     if not is_specular(material):
         raise ModelNotApplicable(f"the every-order model needs specular facets (mirror, conductor, "
@@ -478,9 +503,11 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
 
     prepared = _prepared(material)
     n = max(int(start_quads), 2)
-    coarse, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n // 2)
+    coarse, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n // 2,
+                          should_stop=should_stop)
     while True:
-        fine, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n, known)
+        check_stop(should_stop)
+        fine, known = _mesh(prepared, incident, sensor.resolution, max_order, max_bounces, n, known, should_stop)
         change = np.abs(fine - coarse)
         converged = bool(part(change) <= tolerance * part(fine))
         if converged or 2 * n > max_quads:
@@ -491,5 +518,21 @@ def specular_orders(material, incident, sensor, max_order, max_bounces, *, toler
                           max_order=int(max_order), max_bounces=int(max_bounces), quads=n, converged=converged)
 
 
-__all__ = ["specular_orders", "mesh_integrals", "tau_nodes", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
+def compile_model(material) -> None:
+    """Compile (or load from the cache) the compiled functions :func:`specular_orders` calls
+    for ``material`` (specular facets), on the smallest meshes of a one-cell sensor: what a
+    run does before its models, so that their time is the model's own (the compile's is
+    reported apart). Every specular material's calls have the same argument types; the
+    facet's reflectance table is compiled for facets other than mirrors only."""
+    specular_orders(material, np.array([0.6, 0.0, 0.8]), _OneCell(), 1, 2, tolerance=math.inf, start_quads=2,
+                    max_quads=2)
+
+
+class _OneCell:
+    """What :func:`specular_orders` reads of a sensor, for :func:`compile_model`."""
+
+    resolution = 1
+
+
+__all__ = ["specular_orders", "compile_model", "mesh_integrals", "tau_nodes", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
            "DEFAULT_TOLERANCE"]

@@ -92,7 +92,7 @@ def azimuth_breaks(model, incident, sensor, cells) -> np.ndarray:
     return breaks
 
 
-def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN) -> np.ndarray:
+def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN, should_stop=None) -> np.ndarray:
     """Sorted ``u2`` in [0, 1) of the tangency events of the rays, and any other change of
     a ray's transitions into and out of the peak cells (the hash of
     :func:`vcavity.analytic.peak_rays._walk`) between two rays through cell corners.
@@ -119,7 +119,7 @@ def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN
     def sign(u2):
         return _signatures(np.ascontiguousarray(np.asarray(u2, dtype=np.float64) % 1.0), incident, model.kind,
                            model.params, model.facet_kind, model.facet_data, model.masking_code,
-                           model.lambda_fit, sensor.resolution, slot_of_cell, tan_stop, gl_x, gl_w)
+                           model.lambda_fit, sensor.resolution, slot_of_cell, tan_stop, gl_x, gl_w, should_stop)
 
     corners = azimuth_breaks(model, incident, sensor, cells) if corners is None else np.asarray(corners)
     ends = np.append(corners, corners[0] + 1.0)
@@ -162,7 +162,7 @@ def event_breaks(model, incident, sensor, cells, corners=None, n_scan=EVENT_SCAN
 
 
 def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NODES,
-                   n_radial=DEFAULT_RADIAL_NODES, tolerance=DEFAULT_PEAK_TOLERANCE, with_error=False):
+                   n_radial=DEFAULT_RADIAL_NODES, tolerance=DEFAULT_PEAK_TOLERANCE, with_error=False, should_stop=None):
     """``∫_c f_s cos θ_o dω_o`` for each of ``cells`` by rays in the half-vector domain.
 
     ``u2`` is split at the rays through the cells' corners (:func:`azimuth_breaks`);
@@ -189,6 +189,8 @@ def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NOD
         Absolute accuracy per cell of the azimuthal rule.
     with_error : bool
         Also return the error estimate per cell.
+    should_stop : callable, optional
+        Polled between the compiled calls (batches of rays, :mod:`vcavity.analytic.batches`).
 
     Returns
     -------
@@ -219,11 +221,12 @@ def peak_integrals(model, incident, sensor, cells, n_azimuth=DEFAULT_AZIMUTH_NOD
         gl_x, gl_w = np.polynomial.legendre.leggauss(int(n_radial))
         per_node = _rays(np.ascontiguousarray(nodes.ravel()), np.ascontiguousarray(weights.ravel()), incident,
                          model.kind, model.params, model.facet_kind, model.facet_data, model.masking_code,
-                         model.lambda_fit, sensor.resolution, slot_of_cell, cells.size, tan_stop, gl_x, gl_w)
+                         model.lambda_fit, sensor.resolution, slot_of_cell, cells.size, tan_stop, gl_x, gl_w,
+                         should_stop)
         return per_node.reshape(lo.size, x.size, cells.size).sum(axis=1)
 
     corners = azimuth_breaks(model, incident, sensor, cells)
-    breaks = np.union1d(corners, event_breaks(model, incident, sensor, cells, corners))
+    breaks = np.union1d(corners, event_breaks(model, incident, sensor, cells, corners, should_stop=should_stop))
     ends = np.append(breaks, breaks[0] + 1.0)
     lo, hi = ends[:-1], ends[1:]
     keep = hi - lo > 1e-15

@@ -202,9 +202,12 @@ def report(plan, table) -> None:
             print(f"theta_i = {d.theta_i_deg:g} deg: target error {cfg.target_error:g} {state} "
                   f"(error {rel_error:.3g}, {after})")
     print(f"wrote {plan.output.path}")
+    # the models' compile (or cache load) is said apart from their time; exactly 0 without models
+    model_compile_s = table.attrs["model_compile_time_s"]
+    models = f", model compile/load {model_compile_s:.2f} s" if model_compile_s > 0.0 else ""
     if table.attrs["deterministic"]:
-        print(f"model time {table.attrs['model_time_s']:.2f} s (deterministic table: no path traced)")
+        print(f"model time {table.attrs['model_time_s']:.2f} s (deterministic table: no path traced){models}")
     else:
         print(f"run time {compute_time_s:.2f} s ({rate / 1e6:.2f} M paths/s), "
-              f"kernel compile/load {table.attrs['compile_time_s']:.2f} s")
+              f"kernel compile/load {table.attrs['compile_time_s']:.2f} s{models}")
     print(format_summary(open_table(plan.output.path)))

@@ -171,7 +171,8 @@ def _trace(args, spec, output, data, executor, total) -> int:
         failure = None
         try:
             sweep_run.run(spec, output.path, data, threads=args.threads, chunk_blocks=args.chunk_blocks,
-                          executor=executor, on_progress=progress, on_point=point_done)
+                          executor=executor, on_progress=progress, on_point=point_done,
+                          should_stop=interrupt.cancelled)  # polled by an exact point's models too
         except ModelNotApplicable as exc:
             failure = (f"simulation.estimator = {spec.points[0].config.estimator!r}: {first_line(exc)} "
                        f"({data.n_done()} point(s) done are in {output.path})")

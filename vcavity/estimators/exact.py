@@ -105,14 +105,24 @@ class ExactModels(DirectionModels):
 
         return self.config.target_error if self.config.target_error is not None else DEFAULT_TOLERANCE
 
-    def compute(self, direction):
+    CODE = "every-order model"
+
+    def compile_code(self) -> None:
+        """Compile the every-order model for the run's material (:func:`compile_model
+        <vcavity.analytic.specular_orders.compile_model>`)."""
+        from vcavity.analytic.specular_orders import compile_model
+
+        compile_model(self.config.material)
+
+    def compute(self, direction, should_stop=None):
         """The every-order model of one direction."""
         from vcavity.analytic.specular_orders import specular_orders
         from vcavity.sensor.directions import incident_vector
 
         c = self.config
         return specular_orders(c.material, incident_vector(direction.theta_i, direction.phi_i), self.sensor,
-                               c.max_order, c.effective_max_bounces, tolerance=self.tolerance)
+                               c.max_order, c.effective_max_bounces, tolerance=self.tolerance,
+                               should_stop=should_stop)
 
     def reached(self) -> np.ndarray:
         """Per direction, whether its model met :attr:`tolerance` (False: the mesh hit its size

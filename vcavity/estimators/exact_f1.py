@@ -110,20 +110,29 @@ class F1Models(DirectionModels):
     error once the counts are known.
     """
 
-    def compute(self, direction):
+    CODE = "exact f1 model"
+
+    def compile_code(self) -> None:
+        """Compile the cell model for the run's material (:func:`compile_model
+        <vcavity.analytic.exact_f1.compile_model>`)."""
+        from vcavity.analytic.exact_f1 import compile_model
+
+        compile_model(self.config.material)
+
+    def compute(self, direction, should_stop=None):
         """The cell model of one direction (module doc)."""
         from vcavity.analytic.exact_f1 import CellModel
         from vcavity.sensor.directions import incident_vector
 
         tolerance = MODEL_TOLERANCE_FACTOR / math.sqrt(self.config.path_budget(direction) * self.sensor.n_cells)
         return CellModel(self.config.material, incident_vector(direction.theta_i, direction.phi_i), self.sensor,
-                         tolerance)
+                         tolerance, should_stop=should_stop)
 
     def ready_line(self, seconds: float) -> str:
         """What ``vcavity run`` says once the models are prepared."""
         return f"exact f1 model ready in {seconds:.2f} s"
 
-    def refine(self, tallies, paths) -> None:
+    def refine(self, tallies, paths, should_stop=None) -> None:
         """Refine each direction's model where its error exceeds a tenth of the cell's
         statistical error (:func:`statistical_error` of the cell counts of orders >= 2,
         ``tallies[j][0]`` summed over order slots, over ``paths[j]``), the requirement of
@@ -133,7 +142,8 @@ class F1Models(DirectionModels):
         <vcavity.analytic.exact_f1.CellModel.refine_to>`): only the cells over tolerance
         are recomputed. A model that cannot be refined further keeps the finest rules it
         reached and their error, which ``brdf_stderr`` includes and :meth:`error_ratio`
-        reports: finished paths are never discarded.
+        reports: finished paths are never discarded. ``should_stop`` is polled between the
+        model's compiled calls (:class:`~vcavity.analytic.batches.ModelInterrupted`).
         """
         if self.models is None:
             return
@@ -145,7 +155,7 @@ class F1Models(DirectionModels):
             if np.all(model.error <= tolerance):
                 continue
             try:
-                model.refine_to(tolerance)
+                model.refine_to(tolerance, should_stop=should_stop)
             except ModelNotApplicable:
                 pass
         self.time_s += time.perf_counter() - t0

@@ -47,7 +47,8 @@ def tabulate(config, sensor, estimator, tally, stats, paths, models=None, reache
     reached : ndarray of bool (incidence,), optional
         Target-error runs: whether each direction reached the target (else -1 is stored).
     compute_time_s, compile_time_s : float
-        Seconds spent tracing (a model's table: computing it) and compiling the walk.
+        Seconds spent tracing (a model's table: computing it) and compiling the walk (the
+        models' compile, ``models.compile_time_s``, is their own attribute).
     block_size : int
         Paths per random-number block of the walk.
     device : mapping of str to str, optional
@@ -104,6 +105,7 @@ def tabulate(config, sensor, estimator, tally, stats, paths, models=None, reache
         "target_error": math.nan if c.target_error is None else float(c.target_error),
         "deterministic": int(estimator.walk(c.material) is None),
         "model_time_s": 0.0 if models is None else float(models.time_s),
+        "model_compile_time_s": 0.0 if models is None else float(models.compile_time_s),
         "model_error_ratio": 0.0 if models is None else float(models.error_ratio(tally, paths)),
         **{key: str(value) for key, value in (device or {"device": "cpu"}).items()},
     }

@@ -102,13 +102,15 @@ def format_summary(table, verbose: bool = False) -> str:
             lines.append(f"bounce cap {sim.get('max_bounces')}, f_inf tracked: {sim.get('track_all_orders')}, "
                          f"config from {cfg.get('source', '?')}")
         t_run = _number(table.attrs.get("compute_time_s"))
+        t_models = _number(table.attrs.get("model_compile_time_s")) or 0.0  # 0 without models, or older tables
         if t_run and t_run > 0 and table.deterministic:
-            lines.append(f"model time {t_run:.2f} s")
+            lines.append(f"model time {t_run:.2f} s" + (f", model compile/load {t_models:.2f} s" if t_models else ""))
         elif t_run and t_run > 0:
             total = int(np.sum(table.paths))
             t_compile = _number(table.attrs.get("compile_time_s")) or 0.0
             lines.append(f"run time {t_run:.2f} s ({total / t_run / 1e6:.2f} M paths/s), "
-                         f"compile/load {t_compile:.2f} s")
+                         f"compile/load {t_compile:.2f} s"
+                         + (f", model compile/load {t_models:.2f} s" if t_models else ""))
         lines.append(_device_line(table))
     with_error = table.relative_error is not None and np.any(np.isfinite(table.relative_error))
     header = ["theta_i", "phi_i", "paths"] + [f"albedo {order_name(int(k))}" for k in table.order] + [

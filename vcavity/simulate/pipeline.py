@@ -19,6 +19,7 @@ from typing import Callable
 import numba
 import numpy as np
 
+from vcavity.analytic.batches import ModelInterrupted
 from vcavity.config import RunConfig
 from vcavity.estimators import registry as estimators
 from vcavity.estimators.counts import error_estimate_exists, relative_error
@@ -160,18 +161,30 @@ class Simulation:
         self.compile_time_s = time.perf_counter() - t0
         return self.compile_time_s
 
-    def prepare_models(self) -> float:
-        """The estimator's models, before any path is traced; returns their seconds (0 without).
+    def compile_models(self) -> float:
+        """Compile (or load from the cache) the estimator's models' code on a tiny input;
+        returns the seconds it took (0 without models, or when done already), which the
+        table keeps apart from the model time (``model_compile_time_s``)."""
+        if self.models is None:
+            return 0.0
+        numba.set_num_threads(self.threads)
+        return self.models.compile()
+
+    def prepare_models(self, should_stop: Callable[[], bool] | None = None) -> float:
+        """The estimator's models, before any path is traced (compiled first when not yet,
+        :meth:`compile_models`); returns their seconds (0 without), not counting the compile.
 
         Raises
         ------
         vcavity.analytic.single_bounce.ModelNotApplicable
             A model cannot reach the accuracy the run needs (one line).
+        vcavity.analytic.batches.ModelInterrupted
+            ``should_stop`` returned True (polled between the models' short compiled calls).
         """
         if self.models is None:
             return 0.0
         numba.set_num_threads(self.threads)
-        return self.models.prepare()
+        return self.models.prepare(should_stop=should_stop)
 
     @property
     def model_time_s(self) -> float:
@@ -221,7 +234,10 @@ class Simulation:
             Called with the state every ``checkpoint_every_s`` seconds, between chunks.
         should_stop : callable, optional
             Polled between chunks; when it returns True the run raises
-            :class:`RunInterrupted` carrying the state (all finished chunks in it).
+            :class:`RunInterrupted` carrying the state (all finished chunks in it). The
+            models poll it too: while they are prepared (a
+            :class:`~vcavity.analytic.batches.ModelInterrupted`, nothing traced yet) and
+            refined at the end (:class:`RunInterrupted` with the finished state).
         executor : callable, optional
             ``executor(simulation, units)`` -> iterable of ``(unit, execute(unit))`` in the
             order of ``units`` (an iterator, to be consumed lazily) (e.g. :class:`vcavity.simulate.dask.DaskExecutor`); default:
@@ -232,7 +248,7 @@ class Simulation:
         self.workers_device = getattr(executor, "device_attributes", None)
         if self.compile_time_s == 0.0 and self.workers_device is None:
             self.compile()
-        self.prepare_models()
+        self.prepare_models(should_stop)
         numba.set_num_threads(self.threads)
         state = state if state is not None else self.new_state()
         c = self.config
@@ -258,7 +274,10 @@ class Simulation:
                         getattr(results, "close", lambda: None)()  # cancels what a cluster still runs
                         raise RunInterrupted(state)
         self.last_state = state
-        return self.result(state)
+        try:
+            return self.result(state, should_stop)
+        except ModelInterrupted:  # while the models were refined: every path is in the state
+            raise RunInterrupted(state) from None
 
     def _check_block(self, j: int, done: int) -> int:
         """The block count at which direction ``j`` is next checked: its end, or with a
@@ -319,11 +338,12 @@ class Simulation:
         paths = int(self.paths_done(state)[j])
         return self._direction_error(j, state.tally[j], paths)
 
-    def result(self, state: RunState) -> TableValue:
-        """The table of a finished run state (its models refined to the counts first)."""
+    def result(self, state: RunState, should_stop: Callable[[], bool] | None = None) -> TableValue:
+        """The table of a finished run state (its models refined to the counts first,
+        ``should_stop`` polled meanwhile: :class:`~vcavity.analytic.batches.ModelInterrupted`)."""
         paths = self.paths_done(state)
         if self.models is not None:
-            self.models.refine(state.tally, paths)
+            self.models.refine(state.tally, paths, should_stop=should_stop)
         reached = None
         if self.config.target_error is not None:  # a model's table: whether its mesh met the tolerance
             reached = state.reached.copy() if self.walk is not None else self.models.reached()

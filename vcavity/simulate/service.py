@@ -41,8 +41,9 @@ def _first_line(exc: BaseException) -> str:
 
 
 def prepare(plan: RunPlan, say: Callable[[str], None]):
-    """The simulation of ``plan``, ready to trace: its walk compiled (a notice while that
-    takes a while) and its estimator's models computed.
+    """The simulation of ``plan``, ready to trace: its walk and its estimator's models
+    compiled (a notice while that takes a while, each one's time said apart) and the
+    models computed.
 
     Returns
     -------
@@ -54,7 +55,7 @@ def prepare(plan: RunPlan, say: Callable[[str], None]):
         The estimator's model cannot reach the accuracy the run needs (one line).
     """
     from vcavity.analytic.single_bounce import ModelNotApplicable
-    from vcavity.simulate.interrupts import raise_if_pending
+    from vcavity.simulate.interrupts import pending, raise_if_pending
     from vcavity.simulate.pipeline import Simulation
     from vcavity.simulate.warmup import CompileNotice, Variant
 
@@ -68,8 +69,15 @@ def prepare(plan: RunPlan, say: Callable[[str], None]):
         raise_if_pending()  # a Ctrl-C that the compiler's callbacks swallowed
         if simulation.walk is not None:
             say(f"kernel ready in {compile_s:.2f} s (compile or cache load, not counted as run time)")
+    if simulation.models is not None:
+        code = simulation.models.CODE
+        with CompileNotice(Variant.of_material(cfg.material).label, code=code):
+            models_compile_s = simulation.compile_models()
+        raise_if_pending()
+        say(f"{code} code ready in {models_compile_s:.2f} s (compile or cache load, not counted as model time)")
     try:
-        model_s = simulation.prepare_models()
+        # a SIGTERM or Ctrl-C remembered but not raised stops the models between compiled calls
+        model_s = simulation.prepare_models(should_stop=pending)
     except ModelNotApplicable as exc:
         raise PlanError(f"--estimator = {cfg.estimator}: {_first_line(exc)}") from None
     if simulation.models is not None:

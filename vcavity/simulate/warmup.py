@@ -21,9 +21,12 @@ from dataclasses import dataclass
 from numba.core import event
 
 from vcavity import config as config_mod
+from vcavity._numba.jit import CACHE_ENABLED
+from vcavity.estimators import registry as estimators
 from vcavity.facet import registry as facets
 from vcavity.kernels import walks
 from vcavity.microfacet import registry as distributions
+from vcavity.sensor.grid import EqualAreaSensor
 from vcavity.simulate.pipeline import Scene, Simulation
 
 #: The walks ``microsurface`` selects, in the order warmup compiles them.
@@ -63,7 +66,8 @@ def _smith_walkable(distribution: str) -> bool:
 def variants(microsurfaces=None, distribution_names=None, facet_names=None) -> list[Variant]:
     """Every variant of the given walks, distributions and facets (None: all registered).
 
-    The Smith walk only for the distributions it takes. Registry order.
+    The Smith walk only for the distributions it takes. Registry order; a name given twice
+    (or two names of one registry entry) counts once.
 
     Parameters
     ----------
@@ -74,13 +78,14 @@ def variants(microsurfaces=None, distribution_names=None, facet_names=None) -> l
     -------
     list of Variant
     """
-    walks = tuple(microsurfaces) if microsurfaces else MICROSURFACES
+    walks = tuple(dict.fromkeys(microsurfaces)) if microsurfaces else MICROSURFACES
     for walk in walks:
         if walk not in MICROSURFACES:
             raise KeyError(f"unknown microsurface {walk!r}; accepted: {', '.join(MICROSURFACES)}")
-    dists = [distributions.get(name).NAME for name in distribution_names] if distribution_names \
+    dists = list(dict.fromkeys(distributions.get(name).NAME for name in distribution_names)) if distribution_names \
         else list(distributions.NAMES)
-    facet_modules = [facets.get(name) for name in facet_names] if facet_names else list(facets.MODULES)
+    facet_modules = list(dict.fromkeys(facets.get(name) for name in facet_names)) if facet_names \
+        else list(facets.MODULES)
     return [Variant(walk, dist, facet.NAME, name) for walk in walks for dist in dists for facet in facet_modules
             for name in facet.VARIANTS if walk == "v-cavity" or _smith_walkable(dist)]
 
@@ -132,6 +137,61 @@ def _compiles(kernel) -> int:
     return sum(kernel.walk.stats.cache_misses.values())
 
 
+@dataclass(frozen=True)
+class ModelCode:
+    """The compiled code of one estimator's analytic models, for one microsurface.
+
+    The models dispatch on the distribution and the facet at run time
+    (:mod:`vcavity._numba.dispatch`), so one compile serves every material of the
+    microsurface; it is made for :attr:`material` (a facet with every part the models
+    compute), through the estimator's own :meth:`compile
+    <vcavity.estimators.models.DirectionModels.compile>`, as a run makes it.
+    """
+
+    estimator: str
+    microsurface: str
+    material: tuple  # (key, value) pairs of a [material] table
+
+    @property
+    def label(self) -> str:
+        """``exact estimator's models``, with the walk where it is not the V-groove walk
+        (as :attr:`Variant.label`)."""
+        walk = "" if self.microsurface == "v-cavity" else f" ({self.microsurface} walk)"
+        return f"{self.estimator} estimator's models{walk}"
+
+
+#: Every model code ``--models`` compiles: the every-order model (specular facets; a
+#: conductor also needs the facet's reflectance table, which a mirror skips) and the exact
+#: f1 model of each microsurface (a facet with both a specular and a body term).
+MODELS = (
+    ModelCode("exact", "v-cavity", (("distribution", "ggx"), ("alpha", 0.5), ("facet", "conductor"))),
+    ModelCode("exact-f1", "v-cavity", (("distribution", "beckmann"), ("alpha", 0.5),
+                                       ("facet", "interfaced_lambertian"), ("kd", 0.8), ("eta", 1.5))),
+    ModelCode("exact-f1", "smith", (("microsurface", "smith"), ("distribution", "beckmann"), ("alpha", 0.5),
+                                    ("facet", "interfaced_lambertian"), ("kd", 0.8), ("eta", 1.5))),
+)
+
+
+def compile_models(code: ModelCode) -> tuple[float, bool]:
+    """Compile ``code`` into the cache, or load it from there (as :func:`compile_variant`).
+
+    Returns
+    -------
+    seconds : float
+    loaded : bool
+        True when nothing was compiled (every function came from the cache, or was
+        compiled earlier in this process).
+    """
+    config = config_mod.validate({"material": dict(code.material), "incidence": {"theta_i_deg": [30.0]},
+                                  "simulation": {"estimator": code.estimator, "sensor_resolution": 3}},
+                                 source="vcavity warmup")
+    models = estimators.get(code.estimator).models(config, EqualAreaSensor(config.sensor_resolution))
+    compiled = threading.Event()
+    with event.install_listener("numba:compile", _CompileStarted(compiled)):
+        seconds = models.compile()
+    return seconds, not compiled.is_set()
+
+
 class CompileNotice:
     """Context manager: a line on stderr while Numba compiles for longer than ``delay`` seconds.
 
@@ -143,18 +203,29 @@ class CompileNotice:
     calling thread, so Ctrl-C reaches it as before; a thread only writes the line, and an
     interrupted compile ends the line before the interrupt's own message.
 
+    Where nothing can be cached (:data:`vcavity._numba.jit.CACHE_ENABLED` false) the line
+    says ``(not cached: compiled in every process)`` instead of promising a cache.
+
     Parameters
     ----------
     label : str
-        What is compiled (:attr:`Variant.label`).
+        For what it is compiled (:attr:`Variant.label`).
     stream : file, optional
         Default ``sys.stderr``.
     delay : float
         Seconds before the line appears.
+    code : str, keyword-only
+        What is compiled: ``"kernel"`` (the walk), or an estimator's models
+        (:attr:`vcavity.estimators.models.DirectionModels.CODE`).
+    cached : bool, keyword-only
+        Whether the compiled code is kept (default: whether this process caches).
     """
 
-    def __init__(self, label: str, stream=None, delay: float = 1.0):
-        self.text = f"vcavity: compiling the kernel for {label} (first use; cached afterwards) ..."
+    def __init__(self, label: str, stream=None, delay: float = 1.0, *, code: str = "kernel",
+                 cached: bool | None = None):
+        cached = CACHE_ENABLED if cached is None else cached
+        kept = "first use; cached afterwards" if cached else "not cached: compiled in every process"
+        self.text = f"vcavity: compiling the {code} for {label} ({kept}) ..."
         self.stream = stream if stream is not None else sys.stderr
         self.delay = delay
         self._done = threading.Event()
@@ -218,4 +289,5 @@ class _CompileStarted(event.Listener):
         pass
 
 
-__all__ = ["MICROSURFACES", "Variant", "variants", "compile_variant", "CompileNotice"]
+__all__ = ["MICROSURFACES", "MODELS", "ModelCode", "Variant", "variants", "compile_models", "compile_variant",
+           "CompileNotice"]

@@ -150,7 +150,8 @@ def _join(note: str | None, extra: str) -> str:
 
 def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, chunk_blocks: int | None = None,
         executor=None, on_progress: Callable[..., None] | None = None,
-        on_point: Callable[[Point, SweepData], None] | None = None) -> SweepData:
+        on_point: Callable[[Point, SweepData], None] | None = None,
+        should_stop: Callable[[], bool] | None = None) -> SweepData:
     """Run every point of ``sweep`` not yet done in ``data``, writing ``output`` after each.
 
     Parameters
@@ -170,16 +171,22 @@ def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, ch
     on_point : callable, optional
         ``on_point(point, data)`` after each point is written (an exception raised there
         stops the sweep with that point stored).
+    should_stop : callable, optional
+        The stop request (Ctrl-C), polled between chunks and by a point's analytic models
+        between their short compiled calls: when it returns True the running point is
+        dropped and ``KeyboardInterrupt`` raised (the points before it are stored).
 
     Raises
     ------
     vcavity.analytic.single_bounce.ModelNotApplicable
         Estimator exact-f1 and a point's model cannot reach the accuracy (points before it
         are stored).
+    KeyboardInterrupt
+        ``should_stop`` returned True (points before the running one are stored).
     OSError
         Writing the file failed (the previous file is intact).
     """
-    from vcavity.simulate.pipeline import Simulation
+    from vcavity.simulate.pipeline import RunInterrupted, Simulation
 
     writer = _attach(output, data)
     try:
@@ -187,7 +194,10 @@ def run(sweep: Sweep, output, data: SweepData, *, threads: int | None = None, ch
             if data.data["done"][point.index]:
                 continue
             simulation = Simulation(point.config, threads=threads, chunk_blocks=chunk_blocks)
-            result = simulation.run(on_progress=on_progress, executor=executor)
+            try:
+                result = simulation.run(on_progress=on_progress, executor=executor, should_stop=should_stop)
+            except RunInterrupted:  # the running point is dropped, as on a Ctrl-C between chunks
+                raise KeyboardInterrupt from None
             record(sweep, data, point, result)
             if writer is None:  # a new sweep, or a file from before in-place commits: written whole once
                 write_sweep(output, data)
