@@ -105,10 +105,11 @@ sensor_resolution = 6
 
 def test_a_run_on_a_full_cache_disk_writes_its_table(tmp_path, full_disk):
     """The issue's case on a real full disk: the kernel's save fails with ENOSPC; the run
-    compiles in memory, writes its table, exit 0, and says so once on a line of its own."""
+    compiles in memory, writes its table, exit 0, and says so once on a line of its own
+    (after the compile notice's line, not inside it)."""
     (tmp_path / "c.toml").write_text(RUN)
     env = _env(tmp_path, NUMBA_CACHE_DIR=str(full_disk / "cache"))
-    done = subprocess.run([sys.executable, "-m", "vcavity", "run", "c.toml", "-o", "c.h5", "-q"], cwd=tmp_path,
+    done = subprocess.run([sys.executable, "-m", "vcavity", "run", "c.toml", "-o", "c.h5"], cwd=tmp_path,
                           env=env, capture_output=True, text=True, timeout=600)
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
     assert (tmp_path / "c.h5").is_file()
@@ -116,3 +117,36 @@ def test_a_run_on_a_full_cache_disk_writes_its_table(tmp_path, full_disk):
     assert len(notes) == 1 and notes[0].startswith(
         f"vcavity: note: the Numba cache folder {str(full_disk / 'cache')!r} cannot take compiled code "
         f"(No space left on device)"), done.stderr
+
+
+def test_warmup_on_a_full_cache_disk_is_one_error_line(tmp_path, full_disk):
+    """warmup's work is the saving: a refused save is its failure, exit 2, one line."""
+    env = _env(tmp_path, NUMBA_CACHE_DIR=str(full_disk / "cache"))
+    done = subprocess.run([sys.executable, "-m", "vcavity", "warmup", "--distribution", "beckmann", "--facet",
+                           "mirror", "-q"], cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert done.returncode == 2 and "Traceback" not in done.stderr, done.stderr
+    lines = done.stderr.splitlines()
+    assert len(lines) == 1 and lines[0].startswith(
+        f"vcavity: error: the Numba cache folder {str(full_disk / 'cache')!r} cannot take compiled code "
+        f"(No space left on device): "), done.stderr
+
+
+def test_a_refused_save_is_said_after_the_compile_notice_ends(capsys, monkeypatch):
+    """The note waits for the compile notice's line to end: not in the middle of it."""
+    import errno
+    import time
+
+    from vcavity._numba import cache_lock
+    from vcavity.simulate.warmup import CompileNotice
+
+    monkeypatch.setattr(cache_lock, "SAVE_FAILURES", [])
+    with CompileNotice("beckmann x mirror", delay=0.0) as notice:
+        notice._compiling.set()  # as Numba's compile event does
+        deadline = time.monotonic() + 30
+        while not notice._shown and time.monotonic() < deadline:
+            time.sleep(0.01)
+        cache_lock._save_refused("/the/cache", OSError(errno.ENOSPC, "No space left on device"))
+    lines = capsys.readouterr().err.splitlines()
+    assert len(lines) == 2 and lines[0].startswith("vcavity: compiling the kernel for beckmann x mirror"), lines
+    assert lines[1].startswith("vcavity: note: the Numba cache folder '/the/cache' cannot take compiled code "
+                               "(No space left on device)"), lines

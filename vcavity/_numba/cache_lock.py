@@ -49,8 +49,9 @@ _deferred: list[str] = []
 
 
 @contextlib.contextmanager
-def notes_held():
-    """Say the refused-save note only after the block (a compile notice's line is open in it)."""
+def notes_held(say: bool = True):
+    """Hold the refused-save note until the block ends (a compile notice's line is open in
+    it), then say it, or with ``say=False`` drop it (the caller reports the failure itself)."""
     global _held
     _held += 1
     try:
@@ -58,7 +59,7 @@ def notes_held():
     finally:
         _held -= 1
         if not _held:
-            for line in _deferred:
+            for line in _deferred if say else ():
                 print(line, file=sys.stderr)
             _deferred.clear()
 

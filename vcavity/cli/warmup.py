@@ -154,6 +154,7 @@ def command(args: argparse.Namespace) -> int:
         return EXIT_OK
     from tqdm import tqdm
 
+    from vcavity._numba import cache_lock
     from vcavity.simulate.warmup import Variant, compile_models, compile_variant
 
     if args.device == "cuda":  # before the cache's refusals: without a GPU nothing is compiled anyway
@@ -176,15 +177,25 @@ def command(args: argparse.Namespace) -> int:
     compiled = loaded = 0
     bar = tqdm(selected, unit="item", file=sys.stderr, disable=args.quiet, dynamic_ncols=True)
     try:
-        for item in bar:
-            bar.set_description(f"compiling {item.label}")
-            _, from_cache = compile_variant(item, args.device) if isinstance(item, Variant) else compile_models(item)
-            loaded += from_cache
-            compiled += not from_cache
+        # a disk that refuses the saves (full, read-only) is warmup's failure, said once below
+        with cache_lock.notes_held(say=False):
+            for item in bar:
+                bar.set_description(f"compiling {item.label}")
+                _, from_cache = (compile_variant(item, args.device) if isinstance(item, Variant)
+                                 else compile_models(item))
+                if cache_lock.SAVE_FAILURES:
+                    break
+                loaded += from_cache
+                compiled += not from_cache
     except KeyboardInterrupt:
         bar.close()
         raise Interrupted(f"{compiled + loaded} of {what} ready in {jit.CACHE_LOCATION}") from None
     bar.close()
+    if cache_lock.SAVE_FAILURES:
+        folder, reason = cache_lock.SAVE_FAILURES[0]
+        return error(f"the Numba cache folder {folder!r} cannot take compiled code ({reason}): {item.label} was "
+                     f"compiled but not cached, {compiled + loaded} of {what} are; free space there, or set "
+                     f"NUMBA_CACHE_DIR to a folder that can")
     if args.device == "cuda" and _simulated():  # no model is selected with cuda
         print(f"vcavity: {len(selected)} variant(s) run under numba's CUDA simulator in "
               f"{time.perf_counter() - start:.1f} s: it compiles and caches nothing", file=sys.stderr)

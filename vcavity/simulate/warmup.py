@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from numba.core import event
 
 from vcavity import config as config_mod
+from vcavity._numba import cache_lock
 from vcavity._numba.jit import CACHE_ENABLED
 from vcavity.estimators import registry as estimators
 from vcavity.facet import registry as facets
@@ -259,6 +260,9 @@ class CompileNotice:
 
     def __enter__(self) -> "CompileNotice":
         self._start = time.perf_counter()
+        # a cache that refuses the save says so after this line ends, on a line of its own
+        self._held = cache_lock.notes_held()
+        self._held.__enter__()
         self._listening = event.install_listener("numba:compile", _CompileStarted(self._compiling))
         self._listening.__enter__()
         self._thread.start()
@@ -273,6 +277,7 @@ class CompileNotice:
                             else f"{end}\n")
         self._thread.join()
         self._listening.__exit__(None, None, None)
+        self._held.__exit__(None, None, None)
         return False
 
 
