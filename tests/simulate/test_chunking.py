@@ -22,37 +22,57 @@ from vcavity.simulate.chunking import ChunkSizer
 from vcavity.simulate.pipeline import Simulation
 
 
-def _drive(sizer, seconds_per_block, calls):
-    """Call sizes and their seconds when each block costs ``seconds_per_block`` (a model walk)."""
+def _drive(sizer, seconds_per_block, calls, n_slots=1):
+    """Call sizes and their seconds when each block costs ``seconds_per_block`` on one of
+    ``n_slots`` threads (a model walk: a call takes as many rounds as its busiest thread)."""
     seen = []
     for _ in range(calls):
         n = sizer.blocks
-        seen.append((n, n * seconds_per_block))
-        sizer.observe(n, n * seconds_per_block)
+        seconds = -(-n // n_slots) * seconds_per_block
+        seen.append((n, seconds))
+        sizer.observe(n, seconds)
     return seen
 
 
-@pytest.mark.parametrize("device", ["cpu", "cuda"])
+@pytest.mark.parametrize("device, n_slots", [("cpu", 1), ("cpu", 2), ("cpu", 8), ("cuda", 1)])
 @pytest.mark.parametrize("seconds_per_block", [2e-6, 1e-4, 1.6e-2, 0.66, 1.5])
-def test_calls_settle_at_the_target_time(device, seconds_per_block):
+def test_calls_settle_at_the_target_time(device, n_slots, seconds_per_block):
     """From any first size, calls reach the target within a few calls and stay there:
     about target seconds each, never more than twice the target (the cap aside, and a
-    single block slower than the target, which is the least a call can do)."""
-    sizer = ChunkSizer(device=device, n_slots=2)
-    seen = _drive(sizer, seconds_per_block, 40)
+    round of single blocks slower than the target, which is the least a call can do)."""
+    sizer = ChunkSizer(device=device, n_slots=n_slots)
+    seen = _drive(sizer, seconds_per_block, 40, n_slots if device == "cpu" else 1)
     target = chunking.TARGET_S_CUDA if device == "cuda" else chunking.TARGET_S
     most = chunking.MOST_BLOCKS[device]
     # the first call is sized before anything is measured (a block per thread on the CPU)
     assert all(seconds <= max(2 * target, seconds_per_block) for _, seconds in seen[1:]), seen
+    least = n_slots if device == "cpu" else 1
+    rounds = max(1, int(target / seconds_per_block))  # calls of whole rounds of the threads
+    expected_blocks = min(most, rounds * least) // least * least
     settled = seen[20:]
-    expected_blocks = min(most, max(1, int(target / seconds_per_block)))
-    assert all(abs(n - expected_blocks) <= max(1, 0.01 * expected_blocks) for n, _ in settled), settled
+    assert all(abs(n - expected_blocks) <= max(least, 0.01 * expected_blocks) for n, _ in settled), settled
+
+
+def test_every_call_gives_each_thread_slot_a_block():
+    """A call of fewer blocks than threads leaves threads idle, and a call of 3 blocks on 2
+    threads takes 2 rounds for 1.5 rounds of work: calls are whole rounds, at least one."""
+    sizer = ChunkSizer(n_slots=2)
+    seen = _drive(sizer, 0.66, 10, n_slots=2)  # Smith's walk at GGX alpha = 1000
+    assert all(n >= 2 and n % 2 == 0 for n, _ in seen), seen
+    sizer = ChunkSizer(n_slots=3)
+    seen = _drive(sizer, 1e-3, 30, n_slots=3)
+    assert all(n % 3 == 0 for n, _ in seen), seen
+    sizer.new_direction()
+    assert sizer.blocks % 3 == 0 and sizer.blocks >= 3
 
 
 def test_growth_is_bounded_and_a_new_direction_starts_smaller():
-    sizer = ChunkSizer(n_slots=4)
-    assert sizer.blocks == 4  # one block per thread slot before anything is measured
-    sizer.observe(4, 1e-5)  # too short to measure a rate: grows by GROWTH
+    sizer = ChunkSizer(n_slots=1)
+    assert sizer.blocks == 1  # one block per thread slot before anything is measured
+    assert ChunkSizer(n_slots=4).blocks == 4
+    sizer.observe(1, 1e-5)  # too short to measure a rate: grows by GROWTH
+    assert sizer.blocks == chunking.GROWTH
+    sizer.observe(4, 0.001)  # still too short
     assert sizer.blocks == 4 * chunking.GROWTH
     sizer.observe(16, 0.02)  # a rate of 800 blocks/s would ask for 400: at most GROWTH x
     assert sizer.blocks == 16 * chunking.GROWTH

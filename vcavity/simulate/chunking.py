@@ -45,7 +45,9 @@ class ChunkSizer:
     device : str
         ``"cpu"`` or ``"cuda"``: sets the target time, the first call and the cap.
     n_slots : int
-        The CPU's thread slots: a first call gives each one block.
+        The CPU's thread slots: every call is a multiple of them, at least one block each
+        (a call of fewer blocks leaves threads idle: Smith's walk at GGX alpha = 1000 ran at
+        half speed in calls of one block on two threads). A GPU's threads are its launch's.
 
     Attributes
     ----------
@@ -57,8 +59,14 @@ class ChunkSizer:
         self.fixed = None if fixed is None else int(fixed)
         self.target_s = TARGET_S_CUDA if device == "cuda" else TARGET_S
         self.most = MOST_BLOCKS.get(device, MOST_BLOCKS["cpu"])
-        first = FIRST_BLOCKS_CUDA if device == "cuda" else max(1, int(n_slots))
+        #: the least blocks of a call, and the unit its size is a multiple of
+        self.least = 1 if device == "cuda" else max(1, int(n_slots))
+        first = FIRST_BLOCKS_CUDA if device == "cuda" else self.least
         self.blocks = self.fixed if self.fixed is not None else min(first, self.most)
+
+    def _whole(self, blocks: int) -> int:
+        """``blocks`` rounded down to whole rounds of the thread slots, at least one round."""
+        return max(self.least, blocks // self.least * self.least)
 
     def observe(self, n_blocks: int, seconds: float) -> None:
         """Size the next call from a call of ``n_blocks`` blocks that took ``seconds``.
@@ -66,15 +74,15 @@ class ChunkSizer:
         A call that was cut short (by a direction's end or a target-error check) measures
         the throughput as well as a full one; the next call aims at :attr:`target_s` at that
         rate, growing by at most :data:`GROWTH` over the larger of the call measured and
-        the current size, within ``[1, most]``.
+        the current size, within ``[least, most]`` and in whole rounds of the thread slots.
         """
         if self.fixed is not None or n_blocks < 1:
             return
         most = min(self.most, GROWTH * max(int(n_blocks), self.blocks))
         if seconds < SHORTEST_MEASURED_S:
-            self.blocks = max(self.blocks, most)
+            self.blocks = self._whole(max(self.blocks, most))
             return
-        self.blocks = max(1, min(most, int(n_blocks * self.target_s / seconds)))
+        self.blocks = self._whole(min(most, int(n_blocks * self.target_s / seconds)))
 
     def aim(self, target_s: float) -> None:
         """Aim each call at ``target_s`` seconds instead (e.g. a Dask task, which should
@@ -85,7 +93,7 @@ class ChunkSizer:
         """A new incident direction's paths may cost more than the last one's: its first
         call is a quarter of the last (then grows back as measured)."""
         if self.fixed is None:
-            self.blocks = max(1, self.blocks // GROWTH)
+            self.blocks = self._whole(self.blocks // GROWTH)
 
 
 __all__ = ["ChunkSizer", "FIRST_BLOCKS_CUDA", "GROWTH", "MOST_BLOCKS", "TARGET_S", "TARGET_S_CUDA"]
