@@ -163,3 +163,17 @@ def test_a_sweep_of_exact_points(tmp_path):
     with h5py.File(out) as h5:
         assert np.all(h5["done"][()] == 1) and np.all(h5["paths"][()] == 0)
         np.testing.assert_allclose(h5["albedo"][..., 0], 1.0, atol=1e-9)
+
+
+@pytest.mark.parametrize("estimator", ["exact", "paper"])
+def test_the_microsurface_refusal_names_the_estimator_asked_for(estimator):
+    """The exact estimator shares the paper estimator's V-cavity rule, and once named the
+    paper estimator in its refusal (trial of issue 38: 'exact' was refused as 'paper')."""
+    from vcavity import config as config_mod
+    from vcavity.parameters import ConfigError
+
+    raw = {"material": {"microsurface": "smith", "distribution": "ggx", "alpha": 0.5, "facet": "mirror"},
+           "simulation": {"estimator": estimator}}
+    with pytest.raises(ConfigError) as info:
+        config_mod.validate(raw)
+    assert str(info.value).startswith(f"simulation.estimator = {estimator!r}: is for the v-cavity microsurface")

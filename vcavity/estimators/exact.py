@@ -41,7 +41,7 @@ def check(config) -> None:
     """V-cavities with specular facets; ``max_paths`` does not apply (no path is traced)."""
     from vcavity.facet import registry as facets
 
-    paper.check(config)  # the same microsurface rule: the models are of V-grooves
+    paper.check(config, NAME)  # the same microsurface rule: the models are of V-grooves
     material = config.material
     if not facets.is_specular(material.facet, material.facet_params):
         fail("simulation.estimator", NAME, "is for specular facets only (mirror, conductor, interfaced_lambertian "

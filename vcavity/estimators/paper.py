@@ -36,10 +36,11 @@ def walk(material) -> str:
     return "paper"
 
 
-def check(config) -> None:
-    """V-cavities only: the estimate is the V-groove walk's."""
+def check(config, name: str = NAME) -> None:
+    """V-cavities only: the estimate is the V-groove walk's (``name``: the estimator refused,
+    this one's or another's that shares the rule)."""
     if config.material.microsurface != "v-cavity":
-        fail("simulation.estimator", NAME, "is for the v-cavity microsurface (its estimates are V-groove "
+        fail("simulation.estimator", name, "is for the v-cavity microsurface (its estimates are V-groove "
              f"models); with material.microsurface = {config.material.microsurface!r} use 'analog' or 'exact-f1'")
 
 
