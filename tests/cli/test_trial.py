@@ -73,6 +73,26 @@ def test_a_sweep_interrupted_before_its_first_point_says_nothing_was_written(tmp
     assert not out.exists()
 
 
+def test_an_overwrite_interrupted_before_its_first_point_leaves_the_old_file_and_says_so(tmp_path, capsys,
+                                                                                        monkeypatch):
+    """The issue 38 trial: it said '0 of 2 point(s) are in s.h5 (continue with ... --resume)' of
+    the old file --overwrite had not replaced yet, whose --resume is then refused."""
+    import vcavity.sweep.run as sweep_run
+
+    def interrupted(*args, **kwargs):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(sweep_run, "run", interrupted)
+    (tmp_path / "s.toml").write_text(SWEEP)
+    out = tmp_path / "s.h5"
+    out.write_bytes(b"an older file\n")
+    assert main(["sweep", str(tmp_path / "s.toml"), "-o", str(out), "-q", "--overwrite"]) == 130
+    lines = capsys.readouterr().err.splitlines()
+    assert lines[-1] == (f"vcavity: interrupted; no point finished, {out} is unchanged (start again with: "
+                         f"vcavity sweep {tmp_path / 's.toml'} -o {out} --overwrite)")
+    assert out.read_bytes() == b"an older file\n"
+
+
 @pytest.mark.parametrize("command", ["run", "sweep"])
 def test_a_device_as_config_is_refused_not_read_forever(command):
     """``vcavity run /dev/zero`` read zeros until memory ran out (killed after 20 s in the trial)."""

@@ -132,6 +132,11 @@ def _locked(args, spec, output, data, note, overrides) -> int:
     try:
         return _trace(args, spec, output, data, executor, total)
     except KeyboardInterrupt:
+        if args.overwrite and data.n_done() == 0 and output.path.exists():
+            # --overwrite replaces the old file with the first finished point: none finished
+            print(f"vcavity: interrupted; no point finished, {output.path} is unchanged (start again with: "
+                  f"vcavity sweep {args.sweep} -o {output.path} --overwrite)", file=sys.stderr)
+            return EXIT_INTERRUPTED
         kept = (f"{data.n_done()} of {n_points} point(s) are in {output.path}" if output.path.exists()
                 else f"no point finished, nothing written to {output.path}")
         print(f"vcavity: interrupted; {kept} (continue with: vcavity sweep {args.sweep} -o {output.path} --resume)",
