@@ -654,25 +654,40 @@ class _Exited(Exception):
     pass
 
 
-@pytest.mark.parametrize("status", [0, 1, 2, 130])
-def test_console_entry_skips_teardown_only_after_an_interrupt(monkeypatch, status):
-    """After Ctrl-C the console entry ends with os._exit (no teardown of half-built llvmlite
-    objects, which once crashed with SIGSEGV); every other status is a normal sys.exit."""
+@pytest.mark.parametrize("status", [0, 1, 2, 130, 143])
+def test_console_entry_skips_teardown_whatever_the_status(monkeypatch, status):
+    """The console entry ends with os._exit, with the late signals' handler in place: no
+    teardown of half-built llvmlite objects after Ctrl-C (which once crashed with SIGSEGV),
+    and none after a finished command either, during which signals have their default
+    actions again (issue 38 trial: a SIGTERM there ended a finished run with 143, no line)."""
     import vcavity.cli as cli_package
 
     calls = []
     monkeypatch.setattr(cli_package, "main", lambda: status)
+    handlers = {}
 
     def fake_exit(code):
         calls.append(code)
+        handlers.update({signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)})
         raise _Exited
 
     monkeypatch.setattr(cli_package.os, "_exit", fake_exit)
-    if status == 130:
+    previous = {signum: signal.getsignal(signum) for signum in (signal.SIGINT, signal.SIGTERM)}
+    try:
         with pytest.raises(_Exited):
             cli_package.console_main()
-        assert calls == [130]
-    else:
-        with pytest.raises(SystemExit) as info:
-            cli_package.console_main()
-        assert info.value.code == status and calls == []
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, handler)
+    assert calls == [status]
+    assert all(handler is cli_package._late_interrupt for handler in handlers.values()), handlers
+
+
+def test_a_finished_command_has_no_teardown(tmp_path):
+    """What the process would run at its teardown (an atexit hook here) never runs: the
+    command's status is its exit status, with nothing after it to be killed in."""
+    code = ("import atexit, sys; atexit.register(lambda: print('teardown ran', flush=True)); "
+            "sys.argv = ['vcavity', 'warmup', '--all', '--list']; from vcavity.cli import console_main; console_main()")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert "teardown ran" not in done.stdout and "ggx" in done.stdout

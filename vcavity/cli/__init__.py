@@ -178,12 +178,14 @@ def _guard_streams() -> None:
 def console_main() -> None:
     """The ``vcavity`` console script and ``python -m vcavity``: :func:`main`, then exit.
 
-    After an interrupt the process ends with ``os._exit`` once stdout and stderr are
-    flushed, skipping the interpreter's teardown: a Ctrl-C inside Numba's compiler can
-    leave llvmlite objects half built, and their destructors at teardown have crashed the
-    process (status -11 after the "interrupted" line, seen once in CI). By then nothing of
-    ours is pending: tables, checkpoints and temporary files were settled before
-    :func:`main` returned.
+    The process ends with ``os._exit`` once stdout and stderr are flushed, skipping the
+    interpreter's teardown: a Ctrl-C inside Numba's compiler can leave llvmlite objects
+    half built, and their destructors at teardown have crashed the process (status -11
+    after the "interrupted" line, seen once in CI); and during the teardown signals have
+    their default actions again, so a late SIGTERM ended a finished command with 143 and
+    no line. By then nothing of ours is pending: tables, checkpoints and temporary files
+    were settled before :func:`main` returned, and a late Ctrl-C or SIGTERM before the
+    exit gets its one line (:func:`_late_interrupt`).
     """
     _guard_streams()
     status = main()
@@ -196,9 +198,12 @@ def console_main() -> None:
             stream.flush()
         except (OSError, ValueError, AttributeError):  # closed or None: nothing more can be said
             pass
-    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
-        os._exit(status)
-    sys.exit(status)
+    # os._exit whatever the status: the interpreter's teardown (Numba's and llvmlite's
+    # objects, a few hundred ms) runs after Python has put the signals back to their
+    # default actions, so a SIGTERM in it ended a finished run with 143 and no line (issue
+    # 38 trial: 6 of 14 kills in that window). Nothing of ours waits for the teardown:
+    # files are closed, the cluster shut down, the streams flushed above.
+    os._exit(status)
 
 
 if __name__ == "__main__":  # pragma: no cover
