@@ -691,3 +691,32 @@ def test_a_finished_command_has_no_teardown(tmp_path):
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, cwd=tmp_path)
     assert done.returncode == 0, done.stderr
     assert "teardown ran" not in done.stdout and "ggx" in done.stdout
+
+
+def test_an_interrupt_between_a_compile_and_its_notice_ends_the_line_first(tmp_path, capsys, monkeypatch):
+    """Issue 38 trial: 'compiling the kernel ... ...vcavity: interrupted; no table written' on
+    one line, when the Ctrl-C struck after the notice's line was written and before it ended."""
+    import vcavity.cli.info as info_command
+    from vcavity.simulate.warmup import CompileNotice
+
+    notices = []
+
+    def compiling_then_interrupted(args):
+        notice = CompileNotice("ggx x interfaced_lambertian", delay=0.0, cached=True)
+        notices.append(notice)
+        notice.__enter__()
+        notice._compiling.set()  # as Numba's compile event does
+        deadline = time.monotonic() + 30
+        while not notice._shown and time.monotonic() < deadline:
+            time.sleep(0.01)
+        raise KeyboardInterrupt  # its __exit__ never runs
+
+    monkeypatch.setattr(info_command, "command", compiling_then_interrupted)
+    try:
+        assert main(["info", str(tmp_path / "t.h5")]) == 130
+    finally:
+        for notice in notices:  # its thread and Numba event listener
+            notice.__exit__(None, None, None)
+    lines = capsys.readouterr().err.splitlines()
+    assert lines == ["vcavity: compiling the kernel for ggx x interfaced_lambertian (first use; cached afterwards) "
+                     "... stopped", "vcavity: interrupted"], lines

@@ -95,6 +95,9 @@ def main(argv: list[str] | None = None) -> int:
         sys.unraisablehook = restored_hook = _ignore_unraisable
         settled = exc.outcome if isinstance(exc, Interrupted) else written_outcome()
         outcome = f"; {settled}" if settled else ""
+        notices = sys.modules.get("vcavity.simulate.warmup")  # (no notice without it)
+        if notices is not None:
+            notices.end_open_notices()  # the interrupt may have struck between a compile's end and its line's
         print(f"vcavity: interrupted{outcome}", file=sys.stderr)
         return EXIT_TERMINATED if interrupts.terminated() else EXIT_INTERRUPTED
     finally:

@@ -252,6 +252,7 @@ class CompileNotice:
             if self._done.is_set():
                 return
             self._shown = True
+            _OPEN_NOTICES.add(self)
             self._write(self.text)
         while live and not self._done.wait(1.0):
             with self._lock:
@@ -268,17 +269,37 @@ class CompileNotice:
         self._thread.start()
         return self
 
+    def _end(self, end: str) -> None:
+        """End the notice's line with ``end`` (once; the lock held)."""
+        self._done.set()
+        if self._shown and self in _OPEN_NOTICES:
+            _OPEN_NOTICES.discard(self)
+            self._write(f"\r{self.text}{end}\n" if getattr(self.stream, "isatty", lambda: False)()
+                        else f"{end}\n")
+
     def __exit__(self, exc_type, exc, tb) -> bool:
         with self._lock:
-            self._done.set()
-            if self._shown:
-                end = f" {time.perf_counter() - self._start:.0f} s" if exc_type is None else " stopped"
-                self._write(f"\r{self.text}{end}\n" if getattr(self.stream, "isatty", lambda: False)()
-                            else f"{end}\n")
+            self._end(f" {time.perf_counter() - self._start:.0f} s" if exc_type is None else " stopped")
         self._thread.join()
         self._listening.__exit__(None, None, None)
         self._held.__exit__(None, None, None)
         return False
+
+
+#: The notices whose line is written and not ended yet.
+_OPEN_NOTICES: set = set()
+
+
+def end_open_notices() -> None:
+    """End the line of a compile notice that an interrupt cut short (`` stopped``), before
+    the interrupt's own line is printed: a Ctrl-C can strike inside the notice's exit,
+    between the compile's end and the line's."""
+    for notice in list(_OPEN_NOTICES):
+        if notice._lock.acquire(timeout=1.0):
+            try:
+                notice._end(" stopped")
+            finally:
+                notice._lock.release()
 
 
 class _CompileStarted(event.Listener):
