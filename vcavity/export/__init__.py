@@ -127,12 +127,19 @@ def export(source, format_name: str, request: ExportRequest, path, cancelled=Non
     Raises
     ------
     ExportRefused
-        Before anything is written; ``path`` is untouched.
+        Before anything is written; ``path`` is untouched. Also when the format asks the
+        table API for an incident direction the table does not serve
+        (:class:`~vcavity.brdf.incidence.DirectionNotTabulated`, one line), should a
+        format's own checks have let such a table through.
     """
+    from vcavity.brdf.incidence import DirectionNotTabulated
     from vcavity.io.atomic import replace_atomically
 
     module = format_module(format_name)
     if request.output is None:
         request = dataclasses.replace(request, output=Path(path))
-    prepared = module.prepare(source, request)
+    try:
+        prepared = module.prepare(source, request)
+    except DirectionNotTabulated as exc:
+        raise ExportRefused(f"--format {format_name}: {str(exc).splitlines()[0]}") from None
     replace_atomically(Path(path), lambda temporary: module.write(prepared, Path(temporary)), cancelled=cancelled)
