@@ -41,7 +41,8 @@ def add_parser(subparsers) -> None:
                          "Default: the exact f1 model of the table's microsurface (vcavity; smith-hc for "
                          "microsurface = smith). The chi-square and albedo tests always use that exact model; "
                          "a V-cavity model on a Smith table is refused")
-    compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR (created if missing; the "
+    compare.add_argument("--plots", metavar="DIR",
+                         help="write one comparison PNG per incident direction to DIR (created if missing; the "
                          "folder above it must exist); if they cannot all be written (a full disk), none is: "
                          "one line, exit status 2")
     compare.add_argument("--significance", type=fraction_arg, default=0.01, metavar="A",

@@ -82,6 +82,19 @@ class ExportRequest:
     orders_text: tuple[str, ...] = ()
 
 
+def header_text(text) -> str:
+    """``text`` safe inside a one-line comment of a text file (CSV ``#`` lines, C headers).
+
+    Control characters and line or paragraph separators (a file named ``new\\nline.h5``)
+    are written as Python escapes (``\\n``, ``\\x1b``, ``\\u2028``), so no name breaks a
+    comment line or shifts the line count a reader skips; every other character is kept.
+    """
+    import unicodedata
+
+    return "".join(ch.encode("unicode_escape").decode("ascii")
+                   if unicodedata.category(ch) in ("Cc", "Zl", "Zp") else ch for ch in str(text))
+
+
 def format_module(name: str):
     """The module of format ``name``.
 

@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity._version import __version__
-from vcavity.export import ExportRefused, order_data
+from vcavity.export import ExportRefused, header_text, order_data
 from vcavity.export import rgl_grids as grids
 from vcavity.export.marginal2d import Marginal2D
 from vcavity.export.tensor_file import write_tensor_file
@@ -220,5 +220,5 @@ def _ndf_function(table):
 def _description(table, request, floor) -> str:
     material = ", ".join(f"{k} = {v}" for k, v in table.material.items())
     order = "f_inf (all orders)" if request.order == 0 else f"f{request.order}"
-    return (f"vcavity {__version__} V-cavity BRDF table {table.path.name}: {material}; {order}; "
+    return (f"vcavity {__version__} V-cavity BRDF table {header_text(table.path.name)}: {material}; {order}; "
             f"ndf = (1 - {floor}) D + {floor}/pi; seed {table.seed}")
