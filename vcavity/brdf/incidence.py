@@ -64,7 +64,9 @@ class IncidentRows:
         weights = np.zeros((m, 4))
         up = wi[:, 2] > 0.0
         theta = np.arctan2(np.hypot(wi[:, 0], wi[:, 1]), wi[:, 2])
-        phi = np.mod(np.arctan2(wi[:, 1], wi[:, 0]), _TWO_PI)
+        # + 0.0 turns -0.0 into +0.0: along the normal, arctan2(0, -0.0) would be pi, not 0,
+        # and (-0.0, 0.0, 1.0) (e.g. a mirrored or negated vector) must read as (0, 0, 1)
+        phi = np.mod(np.arctan2(wi[:, 1] + 0.0, wi[:, 0] + 0.0), _TWO_PI)
         if self.isotropic:
             _, thetas, table_rows = self._columns[0]
             rows[:, :2], weights[:, :2] = _theta_bracket(thetas, table_rows, theta)

@@ -1,8 +1,9 @@
 """``vcavity compare``: test a table against an analytic model.
 
 Exit status: 0 the chi-square test of f1 passed for every incident direction; 1 it
-failed; 2 bad input (not a table, missing dataset or order, model not applicable), one
-line; 130 interrupted.
+failed; 2 bad input (not a table, missing dataset or order, model not applicable,
+``--plots`` in a missing folder) or the plots could not be written (a full disk: none
+is written), one line; 130 interrupted.
 """
 
 from __future__ import annotations
@@ -40,7 +41,10 @@ def add_parser(subparsers) -> None:
                          "Default: the exact f1 model of the table's microsurface (vcavity; smith-hc for "
                          "microsurface = smith). The chi-square and albedo tests always use that exact model; "
                          "a V-cavity model on a Smith table is refused")
-    compare.add_argument("--plots", metavar="DIR", help="write one comparison PNG per incident direction to DIR")
+    compare.add_argument("--plots", metavar="DIR",
+                         help="write one comparison PNG per incident direction to DIR (created if missing; the "
+                         "folder above it must exist); if they cannot all be written (a full disk), none is: "
+                         "one line, exit status 2")
     compare.add_argument("--significance", type=fraction_arg, default=0.01, metavar="A",
                          help="family-wise false-alarm rate of the chi-square tests (default 0.01)")
     compare.add_argument("--nodes", type=count_arg(1, 1024), default=64, metavar="N",
@@ -77,16 +81,21 @@ def command(args: argparse.Namespace) -> int:
         :data:`EXIT_BAD_INPUT` for bad input.
     """
     from vcavity.analytic.single_bounce import ModelNotApplicable
-    from vcavity.compare import compare_table, format_report
+    from pathlib import Path
+
+    from vcavity.compare import PlotsNotWritten, compare_table, format_report
     from vcavity.io.preflight import PreflightError, check_plots_folder
 
     if not 0.0 < args.significance < 1.0:
         return error(f"--significance = {args.significance}: must be in (0, 1)")
     if args.plots is not None:
         try:
-            check_plots_folder(args.plots)
+            folder = check_plots_folder(args.plots)
         except PreflightError as exc:
             return error(str(exc))
+        if not folder.exists() and not folder.parent.is_dir():  # as plot -o: no folder tree made up
+            return error(f"--plots = {args.plots!r}: folder {str(folder.parent)!r} does not exist; compare "
+                         f"creates only {Path(args.plots).name!r} itself")
     table = open_table_or_error(args.table)
     if table is None:
         return EXIT_BAD_INPUT
@@ -100,6 +109,8 @@ def command(args: argparse.Namespace) -> int:
                                lambda_fit=args.lambda_fit, plots_dir=args.plots)
     except ModelNotApplicable as exc:
         return error(first_line(exc))
+    except PlotsNotWritten as exc:  # not exit 1: that says the chi-square test failed
+        return error(f"--plots = {args.plots!r}: writing the plots failed ({exc.reason}); nothing was written")
     print(format_report(report))
     if args.plots:
         print(f"plots written to {args.plots}")

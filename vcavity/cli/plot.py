@@ -1,7 +1,8 @@
 """``vcavity plot``: draw a table or a sweep file.
 
 Exit status: 0 written; 2 bad input (unknown kind, an order or theta_i the source lacks,
-an unusable output path), one line, reported before anything is computed; 130 interrupted.
+an unusable output path), one line, reported before anything is computed, or the image
+could not be written (a full disk: one line, nothing written); 130 interrupted.
 """
 
 from __future__ import annotations
@@ -55,7 +56,8 @@ def add_parser(subparsers) -> None:
         description="Draw a table or a sweep file with matplotlib: BRDF values in 1/sr, angles in "
         "degrees. Bad input (unknown kind, an order or theta_i the table lacks, -o in a missing "
         "folder, an existing file without --overwrite, a link, FIFO or the input itself) is a one-line "
-        "error with exit status 2, reported before anything is computed; the image is written atomically.",
+        "error with exit status 2, reported before anything is computed; the image is written atomically "
+        "(a write that fails, e.g. on a full disk, is one line, exit status 2, and leaves nothing behind).",
         epilog=_PLOT_EPILOG, formatter_class=argparse.RawDescriptionHelpFormatter)
     plot.set_defaults(handler=command)
     plot.add_argument("table", metavar="TABLE.h5", nargs="+", help="a table written by vcavity run, or a "
@@ -92,6 +94,7 @@ def command(args: argparse.Namespace) -> int:
     Returns the exit status (:mod:`vcavity.cli.common`).
     """
     from vcavity.plots import PlotError, check_request, render
+    from vcavity.plots.request import ImageNotWritten
 
     if len(args.table) > 2:
         return error(f"inputs = {' '.join(args.table)}: at most two (two tables for --kind versus)")
@@ -111,7 +114,11 @@ def command(args: argparse.Namespace) -> int:
 
     # as export: a Ctrl-C before the rename cancels it, one from the rename on names the file
     with DeferredInterrupt() as interrupt:
-        render(sources[0], request, cancelled=interrupt.cancelled)
+        try:
+            render(sources[0], request, cancelled=interrupt.cancelled)
+        except ImageNotWritten as exc:  # as export says it: one line, exit 2
+            field, shown = ("-o", args.output) if args.output is not None else ("output", str(request.output))
+            return error(f"{field} = {shown!r}: writing failed ({exc.reason}); nothing was written")
         written(request.output)
     interrupt.check()
     print(f"wrote {request.output}")

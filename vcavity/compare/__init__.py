@@ -6,6 +6,7 @@ from vcavity.compare.single_bounce import (
     DEFAULT_SIGNIFICANCE,
     MODELS,
     ComparisonReport,
+    PlotsNotWritten,
     DirectionComparison,
     build_model,
     compare_table,
@@ -15,4 +16,4 @@ from vcavity.compare.single_bounce import (
 
 __all__ = ["compare_table", "format_report", "material_of_table", "build_model", "MODELS", "DEFAULT_SIGNIFICANCE",
            "ComparisonReport", "DirectionComparison", "compare_order", "format_order_report", "OrdersReport",
-           "OrderComparison"]
+           "OrderComparison", "PlotsNotWritten"]

@@ -173,7 +173,8 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
     lambda_fit : bool
         Beckmann Smith models: Walter's rational Lambda.
     plots_dir : path, optional
-        Write one PNG per direction there (matplotlib, Agg).
+        Write one PNG per direction there (matplotlib, Agg), all at the end and each
+        atomically; the folder (and missing ones above it) is created.
 
     Raises
     ------
@@ -181,6 +182,9 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
         Model not applicable to the table's material, a needed order missing, or a table
         whose estimator leaves no path counts to test (the paper estimator's weighted
         estimates, the exact estimator's models).
+    PlotsNotWritten
+        Writing the PNGs failed (a full disk, ...): none was written or replaced, and no
+        folder or temporary file of this call is left behind.
     """
     # the chi-square and the albedo z-test below are multinomial: they read path counts
     untestable = untestable_counts(table)
@@ -208,6 +212,7 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
     level = sidak_threshold(significance, 2 * len(table.theta_i))
     report = ComparisonReport(path=str(table.path), model=model, material=dict(table.material),
                               significance=significance, per_test_level=level, exact_model=exact)
+    pngs = []  # (file name, bytes): written together at the end, or not at all
     for j, (theta, phi) in enumerate(zip(table.theta_i, table.phi_i)):
         i = incident_vector(float(theta), float(phi))
         paths = int(table.paths[j])
@@ -231,11 +236,70 @@ def compare_table(table, model: str | None = None, significance: float = DEFAULT
             chi_square=chi, albedo_test=albedo, vcavity_f1_albedo=float(np.sum(f1_integrals)),
             passed=chi.passed(level) and albedo.passed(level)))
         if plots_dir is not None:
-            _plot_direction(Path(plots_dir), table, j, observed / (paths * sensor.cell_projected_solid_angle),
-                            model_integrals / sensor.cell_projected_solid_angle,
-                            (f1_counts - paths * f1_integrals) / np.sqrt(np.maximum(paths * f1_integrals, 1.0)),
-                            model, orders)
+            pngs.append(_plot_direction(
+                table, j, observed / (paths * sensor.cell_projected_solid_angle),
+                model_integrals / sensor.cell_projected_solid_angle,
+                (f1_counts - paths * f1_integrals) / np.sqrt(np.maximum(paths * f1_integrals, 1.0)), model, orders))
+    if plots_dir is not None:
+        write_plots(Path(plots_dir), pngs)
     return report
+
+
+class PlotsNotWritten(Exception):
+    """``compare --plots``: the PNGs could not be written; none was, nothing is left behind.
+
+    Attributes
+    ----------
+    reason : str
+        What the system said (``No space left on device``).
+    """
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
+def write_plots(folder: Path, files) -> None:
+    """Write ``files`` (pairs of name and bytes) into ``folder``: all of them or none.
+
+    Each goes to a temporary file beside its destination (:mod:`vcavity.io.atomic`);
+    once all are complete they are renamed into place. On a failure (a full disk) or a
+    Ctrl-C the temporary files and the folders this call created are removed, and files
+    already there are untouched.
+
+    Raises
+    ------
+    PlotsNotWritten
+        The system refused a write.
+    """
+    import os
+
+    from vcavity.io import atomic
+
+    created = []
+    ancestor = folder
+    while not ancestor.exists() and ancestor != ancestor.parent:
+        created.append(ancestor)
+        ancestor = ancestor.parent
+    temporaries = []
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        for name, data in files:
+            temporaries.append((atomic.create_temporary(folder / name), folder / name))
+            atomic.write_bytes(temporaries[-1][0], data)
+        for temporary, destination in temporaries:
+            os.replace(temporary, destination)
+    except BaseException as exc:
+        for temporary, _ in temporaries:
+            temporary.unlink(missing_ok=True)
+        for made in created:  # deepest first; one that is not empty is not ours alone
+            try:
+                made.rmdir()
+            except OSError:
+                pass
+        if isinstance(exc, OSError):
+            raise PlotsNotWritten(exc.strerror or str(exc).splitlines()[0]) from None
+        raise
 
 
 def format_report(report: ComparisonReport) -> str:
@@ -267,14 +331,16 @@ def format_report(report: ComparisonReport) -> str:
     return "\n".join(lines)
 
 
-def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, orders):
-    """One PNG per direction: table, model and f1 deviation in sigma, as sensor images."""
+def _plot_direction(table, j, table_brdf, model_brdf, z, model, orders):
+    """One PNG per direction: table, model and f1 deviation in sigma, as sensor images;
+    returns its file name and its bytes."""
+    import io
+
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    folder.mkdir(parents=True, exist_ok=True)
     n = table.sensor.resolution
     theta = math.degrees(float(table.theta_i[j]))
     phi = math.degrees(float(table.phi_i[j]))
@@ -294,5 +360,7 @@ def _plot_direction(folder: Path, table, j, table_brdf, model_brdf, z, model, or
     fig.suptitle(f"{Path(str(table.path)).name}: theta_i {fmt(theta)} deg, phi_i {fmt(phi)} deg")
     fig.tight_layout()
     # file names stay short for any stored angle (phi_i = 1e300 deg is a valid table)
-    fig.savefig(folder / f"compare_{model}_theta{fmt(theta)}_phi{fmt(phi)}.png".replace("+", ""), dpi=90)
+    png = io.BytesIO()
+    fig.savefig(png, format="png", dpi=90)
     plt.close(fig)
+    return f"compare_{model}_theta{fmt(theta)}_phi{fmt(phi)}.png".replace("+", ""), png.getvalue()

@@ -82,6 +82,19 @@ class ExportRequest:
     orders_text: tuple[str, ...] = ()
 
 
+def header_text(text) -> str:
+    """``text`` safe inside a one-line comment of a text file (CSV ``#`` lines, C headers).
+
+    Control characters and line or paragraph separators (a file named ``new\\nline.h5``)
+    are written as Python escapes (``\\n``, ``\\x1b``, ``\\u2028``), so no name breaks a
+    comment line or shifts the line count a reader skips; every other character is kept.
+    """
+    import unicodedata
+
+    return "".join(ch.encode("unicode_escape").decode("ascii")
+                   if unicodedata.category(ch) in ("Cc", "Zl", "Zp") else ch for ch in str(text))
+
+
 def format_module(name: str):
     """The module of format ``name``.
 
@@ -127,12 +140,19 @@ def export(source, format_name: str, request: ExportRequest, path, cancelled=Non
     Raises
     ------
     ExportRefused
-        Before anything is written; ``path`` is untouched.
+        Before anything is written; ``path`` is untouched. Also when the format asks the
+        table API for an incident direction the table does not serve
+        (:class:`~vcavity.brdf.incidence.DirectionNotTabulated`, one line), should a
+        format's own checks have let such a table through.
     """
+    from vcavity.brdf.incidence import DirectionNotTabulated
     from vcavity.io.atomic import replace_atomically
 
     module = format_module(format_name)
     if request.output is None:
         request = dataclasses.replace(request, output=Path(path))
-    prepared = module.prepare(source, request)
+    try:
+        prepared = module.prepare(source, request)
+    except DirectionNotTabulated as exc:
+        raise ExportRefused(f"--format {format_name}: {str(exc).splitlines()[0]}") from None
     replace_atomically(Path(path), lambda temporary: module.write(prepared, Path(temporary)), cancelled=cancelled)

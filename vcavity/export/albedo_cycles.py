@@ -30,7 +30,7 @@ import math
 
 import numpy as np
 
-from vcavity.export import ExportRefused
+from vcavity.export import ExportRefused, header_text
 from vcavity.export.lut_common import c_array
 
 N = 32
@@ -141,7 +141,7 @@ def c_header(lut) -> str:
     lines = ["/* Albedo look-up tables for energy compensation (Kulla & Conty 2017) in Blender Cycles'",
              f" * layout (table_ggx_E, table_ggx_Eavg), written by vcavity {meta['vcavity_version']}",
              " * (vcavity export --format albedo-lut --layout cycles).", " *"]
-    lines += [f" * {key}: {str(value).replace('*/', '* /')}" for key, value in meta.items()]
+    lines += [f" * {key}: {header_text(value).replace('*/', '* /')}" for key, value in meta.items()]
     lines += [" * theta_i_deg of each mu node, as simulated: "
               + ", ".join(repr(float(t)) for t in lut.axes["theta_i_deg"]),
               " * alpha of each r node, as simulated: " + ", ".join(repr(float(a)) for a in lut.axes["alpha"]),

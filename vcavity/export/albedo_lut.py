@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from vcavity._version import __version__
-from vcavity.export import ExportRefused, ExportRequest
+from vcavity.export import ExportRefused, ExportRequest, header_text
 from vcavity.export import albedo_cycles as cycles
 from vcavity.export.lut_common import albedo_tables, c_array, orders_label, select, table_specs
 from vcavity.io.schema import order_name, orders_text
@@ -256,7 +256,7 @@ def c_header(lut: AlbedoLut) -> str:
     meta, mu, alpha = lut.metadata, lut.axes["mu"], lut.axes["alpha"]
     lines = ["/* Albedo look-up tables for energy compensation (Kulla & Conty 2017), written by",
              f" * vcavity {meta['vcavity_version']} (vcavity export --format albedo-lut).", " *"]
-    lines += [f" * {key}: {str(value).replace('*/', '* /')}" for key, value in meta.items()]
+    lines += [f" * {key}: {header_text(value).replace('*/', '* /')}" for key, value in meta.items()]
     if "E_f1" in lut.tables and "E" in lut.tables and meta["order"] != "see tables":
         lines.append(f" * E = albedo of {meta['order']}; E_f1 = albedo of f1 (single scattering).")
     lines += [  # the axes in full double precision (repr: shortest round trip); the arrays are floats

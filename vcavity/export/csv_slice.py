@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from vcavity.export import ExportRefused, ExportRequest, order_data
+from vcavity.export import ExportRefused, ExportRequest, header_text, order_data
 
 NAME = "csv"
 SOURCE = "table"
@@ -197,7 +197,7 @@ def write(prepared: CsvSlice, path) -> None:
     """
     with open(path, "w", newline="", encoding="utf-8") as out:
         for line in prepared.comments:
-            out.write(f"# {line}\n")
+            out.write(f"# {header_text(line)}\n")  # a file name holding a newline stays one line
         rows = csv.writer(out, lineterminator="\n")
         rows.writerow(COLUMNS)
         for theta_o, phi_o, cell, brdf, stderr in zip(prepared.theta_o_deg, prepared.phi_o_deg,

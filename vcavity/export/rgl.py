@@ -44,7 +44,7 @@ from __future__ import annotations
 import numpy as np
 
 from vcavity._version import __version__
-from vcavity.export import ExportRefused, order_data
+from vcavity.export import ExportRefused, header_text, order_data
 from vcavity.export import rgl_grids as grids
 from vcavity.export.marginal2d import Marginal2D
 from vcavity.export.tensor_file import write_tensor_file
@@ -90,23 +90,37 @@ def incident_angles(tabulated, lobe_width: float, subdivisions: int = THETA_SUBD
     return np.array(angles + [nodes[-1]])
 
 
-def file_azimuths(table) -> np.ndarray:
-    """``phi_i`` of an anisotropic table's file: its tabulated azimuths minus pi (rad).
+def file_azimuths(table, format_name: str = NAME) -> np.ndarray:
+    """``phi_i`` of an anisotropic table's file: its tabulated azimuths minus pi (rad);
+    ``format_name`` (``rgl`` or ``rgl-spectral``) is named in refusals.
 
     Raises
     ------
     ExportRefused
         The azimuths (of the rows with theta_i > 0) do not span exactly [0, 90] or
         [0, 180] deg: a reader folds every incident direction into a span of 90 or 180
-        deg and would find no data for the others.
+        deg and would find no data for the others. Or two neighbours are more than
+        :data:`~vcavity.brdf.incidence.MAX_PHI_GAP` apart: ``Table.eval`` (the table API)
+        serves no azimuth between them, and the file needs every one of the span.
     """
+    from vcavity.brdf.incidence import MAX_PHI_GAP
+
     oblique = np.asarray(table.theta_i) > 1e-9
     degrees = np.unique(np.round(np.mod(np.degrees(np.asarray(table.phi_i)[oblique]), 360.0), 9))
+    listed = ", ".join(f"{d:g}" for d in degrees)
     if degrees.size < 2 or degrees[0] != 0.0 or not any(abs(degrees[-1] - s) < 1e-6 for s in _SPANS_DEG):
         raise ExportRefused(
-            f"table {str(table.path)!r}: --format {NAME} of an anisotropic table needs its incident "
+            f"table {str(table.path)!r}: --format {format_name} of an anisotropic table needs its incident "
             f"azimuths to span 0 to 90 deg (or 0 to 180), e.g. phi_i_deg = [0, 45, 90]; it has "
-            f"phi_i_deg {', '.join(f'{d:g}' for d in degrees)}")
+            f"phi_i_deg {listed}")
+    widest = float(np.max(np.diff(degrees)))
+    max_gap = float(np.degrees(MAX_PHI_GAP))
+    if widest > max_gap + 1e-6:
+        raise ExportRefused(
+            f"table {str(table.path)!r}: --format {format_name} needs the table at every incident azimuth from 0 to "
+            f"{degrees[-1]:g} deg, and an anisotropic table is interpolated only between tabulated azimuths at "
+            f"most {max_gap:g} deg apart (the table API's MAX_PHI_GAP); it has phi_i_deg {listed}, a gap of "
+            f"{widest:g} deg: add azimuths in between, e.g. phi_i_deg = [0, 90, 180]")
     steps = np.arange(AZIMUTH_SUBDIVISIONS) / AZIMUTH_SUBDIVISIONS
     inner = (degrees[:-1, None] + np.diff(degrees)[:, None] * steps).ravel()
     return np.radians(np.append(inner, degrees[-1])) - np.pi
@@ -128,7 +142,8 @@ def build_fields(table, request, colour_field: str, wavelengths=None) -> dict:
         raise ExportRefused(f"table {str(table.path)!r}: order {request.order_text} is zero everywhere; "
                             "an RGL file cannot hold a BSDF without light")
     isotropic = material_is_isotropic(table.material)
-    phi_i = np.array([0.0]) if isotropic else file_azimuths(table)
+    format_name = NAME if wavelengths is None else f"{NAME}-spectral"
+    phi_i = np.array([0.0]) if isotropic else file_azimuths(table, format_name)
     ndf_of_m, floor, lobe_width = _ndf_function(table)
     theta_i = incident_angles(table.theta_i, lobe_width)
     ndf = grids.ndf_grid(ndf_of_m)
@@ -205,5 +220,5 @@ def _ndf_function(table):
 def _description(table, request, floor) -> str:
     material = ", ".join(f"{k} = {v}" for k, v in table.material.items())
     order = "f_inf (all orders)" if request.order == 0 else f"f{request.order}"
-    return (f"vcavity {__version__} V-cavity BRDF table {table.path.name}: {material}; {order}; "
+    return (f"vcavity {__version__} V-cavity BRDF table {header_text(table.path.name)}: {material}; {order}; "
             f"ndf = (1 - {floor}) D + {floor}/pi; seed {table.seed}")

@@ -20,6 +20,20 @@ class PlotError(ValueError):
     """A plot request the table cannot satisfy; the message is one line."""
 
 
+class ImageNotWritten(Exception):
+    """Saving the image failed (a full disk, ...); nothing was written, no temporary file left.
+
+    Attributes
+    ----------
+    reason : str
+        What the system said (``No space left on device``), for a one-line message.
+    """
+
+    def __init__(self, reason: str):
+        super().__init__(reason)
+        self.reason = reason
+
+
 @dataclass(frozen=True)
 class PlotRequest:
     """A checked request: what :func:`render` draws."""
@@ -94,12 +108,28 @@ def default_field(kind: str) -> str:
 
 def save(fig, output: Path, dpi: int = 110, cancelled=None) -> None:
     """Save ``fig`` to ``output`` atomically (temporary file in the same folder, os.replace);
-    ``cancelled`` as in :func:`vcavity.io.atomic.replace_atomically`."""
-    from vcavity.io.atomic import replace_atomically
+    ``cancelled`` as in :func:`vcavity.io.atomic.replace_atomically`.
 
-    # the temporary file ends in .tmp: the format comes from the output's suffix
-    replace_atomically(output, lambda temporary: fig.savefig(temporary, format=output.suffix[1:].lower(), dpi=dpi),
-                       cancelled=cancelled)
+    Raises
+    ------
+    ImageNotWritten
+        The system refused the write (disk full, quota, I/O error): ``output`` is untouched
+        and the temporary file removed.
+    """
+    import io
+
+    from vcavity.io.atomic import replace_atomically, write_bytes
+
+    # drawn into memory first: matplotlib's PDF backend, failing to write mid-stream,
+    # raises an AttributeError from its cleanup instead of the OSError; plain file I/O
+    # then writes the bytes (the temporary file ends in .tmp: the format comes from the
+    # output's suffix)
+    image = io.BytesIO()
+    fig.savefig(image, format=output.suffix[1:].lower(), dpi=dpi)
+    try:
+        replace_atomically(output, lambda temporary: write_bytes(temporary, image.getvalue()), cancelled=cancelled)
+    except OSError as exc:
+        raise ImageNotWritten(exc.strerror or str(exc).splitlines()[0]) from None
 
 
 def sort_orders(orders) -> tuple:
