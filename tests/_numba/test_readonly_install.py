@@ -104,10 +104,15 @@ def test_open_table_imports_no_numba(tmp_path, which):
 
 def test_info_imports_no_numba(tmp_path):
     _write_small_table(tmp_path / "t.h5")
-    code = ("import runpy\n"
+    # the console entry ends with os._exit: report there, before the process ends
+    code = ("import os, runpy\n"
             "sys.argv = ['vcavity', 'info', sys.argv[1]]\n"
-            "try:\n    runpy.run_module('vcavity', run_name='__main__', alter_sys=True)\n"
-            "except SystemExit as exit:\n    print('status', exit.code)\n")
+            "real_exit = os._exit\n"
+            "def reporting_exit(code):\n"
+            "    print('status', code)\n" + "    " + REPORT_NUMBA +
+            "    sys.stdout.flush()\n    real_exit(code)\n"
+            "os._exit = reporting_exit\n"
+            "runpy.run_module('vcavity', run_name='__main__', alter_sys=True)\n")
     lines = _run_with_numba_spy(code, tmp_path / "t.h5", tmp_path)
     assert lines[-2:] == ["status 0", "numba imported by: None"], "\n".join(lines)
 

@@ -43,15 +43,39 @@ def test_ctrl_c_just_after_the_file_is_written_says_so(table, tmp_path, capsys, 
 
 
 def test_ctrl_c_after_main_returned_is_one_line_exit_130(table, tmp_path):
-    """A SIGINT while the process shuts down (here: an atexit hook, as Dask's cluster
-    shutdown is) after export finished: one line naming the file, exit 130, no traceback."""
+    """A SIGINT while the process ends (here: as its streams are flushed, after main
+    returned and before the exit) after export finished: one line naming the file, exit
+    130, no traceback. The console entry has no teardown after it (os._exit), where Python
+    would have put the signals back to their default actions."""
     out = tmp_path / "t.csv"
     script = textwrap.dedent(f"""
-        import atexit, os, signal, sys, time
-        atexit.register(lambda: (os.kill(os.getpid(), signal.SIGINT), time.sleep(5)))
+        import os, signal, sys, time
+
+        class LateSignal:  # stdout whose last flush meets a Ctrl-C
+            def __init__(self, stream):
+                self.stream, self.main_returned = stream, False
+            def write(self, text):
+                return self.stream.write(text)
+            def fileno(self):
+                return self.stream.fileno()
+            def flush(self):
+                self.stream.flush()
+                if self.main_returned:
+                    os.kill(os.getpid(), signal.SIGINT)
+                    time.sleep(5)
+
+        late = sys.stdout = LateSignal(sys.stdout)
         sys.argv = ["vcavity", "export", {str(table)!r}, {str(out)!r}, "--format", "csv", "--theta-i", "30"]
-        from vcavity.cli import console_main
-        console_main()
+        from vcavity import cli
+        main = cli.main
+
+        def main_then_arm():
+            status = main()
+            late.main_returned = True
+            return status
+
+        cli.main = main_then_arm
+        cli.console_main()
     """)
     done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
     assert done.returncode == 130, done.stderr
