@@ -158,7 +158,7 @@ MUTANTS = (
            "return hi, mass - hi",
            "the every-order model's hat weights against du1/dtau credited to the wrong end of each interval",
            ("tests/analytic/test_specular_orders.py",)),
-    Mutant("orders-density-corners-swapped", "vcavity/analytic/specular_orders.py",
+    Mutant("orders-density-corners-swapped", "vcavity/analytic/splat.py",
            "((1.0 - l1 - l2) * m0 + l1 * m1 + l2 * m2)",
            "((1.0 - l1 - l2) * m0 + l2 * m1 + l1 * m2)",
            "the every-order model's linear density over an image triangle takes two corners' values swapped",

@@ -13,7 +13,8 @@ from tests.reference import materials as M
 from vcavity.analytic.exact_f1 import f1_cell_integrals
 from vcavity.analytic.single_bounce import ModelNotApplicable
 from vcavity.analytic import specular_orders as so
-from vcavity.analytic.specular_orders import is_specular, specular_orders, splat_triangle, tau_nodes, tau_weights
+from vcavity.analytic.specular_orders import is_specular, specular_orders, tau_nodes, tau_weights
+from vcavity.analytic.splat import splat_triangle
 from vcavity.config import validate
 from vcavity.sensor.directions import incident_vector
 from vcavity.sensor.grid import EqualAreaSensor, square_to_hemisphere_array

@@ -48,6 +48,7 @@ from vcavity._numba.jit import njit
 from vcavity.analytic import specular_groove as sg
 from vcavity.analytic.batches import check_stop, in_batches
 from vcavity.analytic.single_bounce import ModelNotApplicable
+from vcavity.analytic.splat import MAX_POLYGON, cell_of, splat_triangle
 from vcavity.facet import registry as facets
 from vcavity.microfacet import registry as distributions
 from vcavity.sensor.binning import hemisphere_to_square
@@ -69,7 +70,6 @@ TAIL_END = 1e-6
 #: Largest ``u1`` (the sampler's deepest groove the quadrature reaches).
 _U1_MAX = 1.0 - 2.0 ** -53
 _HALF_PI = 0.5 * math.pi
-_MAX_POLYGON = 12  # a triangle clipped by four half-planes has at most 7 corners
 _MAX_PARTS = 64  # cells of a triangle's box whose integrals are kept between the two passes
 #: Vertices of the first batch of a mesh's rows (later batches are sized by time).
 _FIRST_VERTICES = 1 << 14
@@ -159,107 +159,6 @@ def tau_weights(nodes):
     return mass - hi, hi
 
 
-@njit(cache=True, inline="always")
-def _cell(x, y, resolution):
-    ix = min(max(int(math.floor(x)), 0), resolution - 1)
-    iy = min(max(int(math.floor(y)), 0), resolution - 1)
-    return iy * resolution + ix
-
-
-@njit(cache=True, inline="always")
-def _clip(px, py, n, qx, qy, axis, bound, keep_above):
-    """Sutherland-Hodgman: the part of polygon ``(px, py)[:n]`` on one side of a grid line."""
-    m = 0
-    for k in range(n):
-        ax, ay = px[k], py[k]
-        bx, by = px[(k + 1) % n], py[(k + 1) % n]
-        ca = ax if axis == 0 else ay
-        cb = bx if axis == 0 else by
-        a_in = ca >= bound if keep_above else ca <= bound
-        b_in = cb >= bound if keep_above else cb <= bound
-        if a_in:
-            qx[m], qy[m] = ax, ay
-            m += 1
-        if a_in != b_in:
-            f = (bound - ca) / (cb - ca)
-            qx[m], qy[m] = ax + f * (bx - ax), ay + f * (by - ay)
-            m += 1
-    return m
-
-
-@njit(cache=True)
-def splat_triangle(acc, base, x0, y0, x1, y1, x2, y2, m0, m1, m2, mass, resolution, px, py, qx, qy, parts):
-    """Add ``mass`` to the cells under the image triangle, each cell's share the integral of
-    the linear density with corner values ``m0, m1, m2`` over the triangle's part in it.
-
-    ``px, py, qx, qy`` are work arrays of :data:`_MAX_POLYGON` entries; ``parts`` keeps the
-    cells' integrals between the two passes (when the triangle's box of cells fits in it;
-    otherwise they are computed twice)."""
-    lo_x = min(max(int(math.floor(min(x0, x1, x2))), 0), resolution - 1)
-    hi_x = min(max(int(math.floor(max(x0, x1, x2))), 0), resolution - 1)
-    lo_y = min(max(int(math.floor(min(y0, y1, y2))), 0), resolution - 1)
-    hi_y = min(max(int(math.floor(max(y0, y1, y2))), 0), resolution - 1)
-    if lo_x == hi_x and lo_y == hi_y:
-        acc[base + lo_y * resolution + lo_x] += mass
-        return
-    area2 = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0)
-    total = m0 + m1 + m2
-    if abs(area2) < 1e-24 or not total > 0.0:  # degenerate image: the centroid's cell
-        acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
-        return
-    # two passes: the shares of the clipped parts, then the mass in proportion to them
-    # (normalised by their sum, so that a thin triangle's rounding cannot lose mass)
-    n_x = hi_x - lo_x + 1
-    stored = n_x * (hi_y - lo_y + 1) <= parts.size
-    shares = 0.0
-    for cy in range(lo_y, hi_y + 1):
-        for cx in range(lo_x, hi_x + 1):
-            part = _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy)
-            if stored:
-                parts[(cy - lo_y) * n_x + cx - lo_x] = part
-            shares += part
-    if not shares > 0.0:  # rounding left nothing: the centroid's cell
-        acc[base + _cell((x0 + x1 + x2) / 3.0, (y0 + y1 + y2) / 3.0, resolution)] += mass
-        return
-    for cy in range(lo_y, hi_y + 1):
-        for cx in range(lo_x, hi_x + 1):
-            if stored:
-                part = parts[(cy - lo_y) * n_x + cx - lo_x]
-            else:
-                part = _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy)
-            if part > 0.0:
-                acc[base + cy * resolution + cx] += mass * (part / shares)
-
-
-@njit(cache=True, inline="always")
-def _clipped_integral(cx, cy, x0, y0, x1, y1, x2, y2, m0, m1, m2, area2, px, py, qx, qy):
-    """Integral over cell ``(cx, cy)`` of the linear density with corner values ``m0, m1, m2``
-    on the triangle (area and centroid of the clipped polygon: exact for a linear density)."""
-    px[0], py[0], px[1], py[1], px[2], py[2] = x0, y0, x1, y1, x2, y2
-    n = _clip(px, py, 3, qx, qy, 0, float(cx), True)
-    n = _clip(qx, qy, n, px, py, 0, float(cx + 1), False)
-    n = _clip(px, py, n, qx, qy, 1, float(cy), True)
-    n = _clip(qx, qy, n, px, py, 1, float(cy + 1), False)
-    if n < 3:
-        return 0.0
-    a2 = 0.0
-    gx = 0.0
-    gy = 0.0
-    for k in range(n):
-        cross = px[k] * py[(k + 1) % n] - px[(k + 1) % n] * py[k]
-        a2 += cross
-        gx += (px[k] + px[(k + 1) % n]) * cross
-        gy += (py[k] + py[(k + 1) % n]) * cross
-    if a2 == 0.0:
-        return 0.0
-    gx /= 3.0 * a2
-    gy /= 3.0 * a2
-    # barycentric coordinates of the centroid: the linear density there
-    l1 = ((gx - x0) * (y2 - y0) - (x2 - x0) * (gy - y0)) / area2
-    l2 = ((x1 - x0) * (gy - y0) - (gx - x0) * (y1 - y0)) / area2
-    return max(0.5 * abs(a2) * ((1.0 - l1 - l2) * m0 + l1 * m1 + l2 * m2), 0.0)
-
-
 @njit(cache=True)
 def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bounces, resolution, px, py, qx, qy,
           parts, masses, counts):
@@ -289,8 +188,9 @@ def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bou
         x1, y1 = image[rr[1], qq[1], slot, 0], image[rr[1], qq[1], slot, 1]
         x2, y2 = image[rr[2], qq[2], slot, 0], image[rr[2], qq[2], slot, 1]
         x3, y3 = image[rr[3], qq[3], slot, 0], image[rr[3], qq[3], slot, 1]
-        c0 = _cell(x0, y0, resolution)
-        if c0 == _cell(x1, y1, resolution) and c0 == _cell(x2, y2, resolution) and c0 == _cell(x3, y3, resolution):
+        c0 = cell_of(x0, y0, resolution)
+        if (c0 == cell_of(x1, y1, resolution) and c0 == cell_of(x2, y2, resolution)
+                and c0 == cell_of(x3, y3, resolution)):
             acc[base + c0] += total
             return
         # two triangles; each carries the quad's mass in proportion to its linear integral
@@ -312,7 +212,7 @@ def _quad(acc, value, bounces, image, r, q, slot, w_lo, w_hi, max_order, max_bou
             acc[truncated] += masses[k]
         else:
             acc[(min(n, max_order + 1) - 1) * n_cells
-                + _cell(image[rr[k], qq[k], slot, 0], image[rr[k], qq[k], slot, 1], resolution)] += masses[k]
+                + cell_of(image[rr[k], qq[k], slot, 0], image[rr[k], qq[k], slot, 1], resolution)] += masses[k]
 
 
 @njit(cache=True, parallel=True)
@@ -324,10 +224,10 @@ def _accumulate_chunks(partial, first_chunk, last_chunk, value, bounces, image, 
     n_tau = value.shape[0] - 1
     n_u2 = value.shape[1] - 1
     for chunk in prange(first_chunk, last_chunk):
-        px = np.empty(_MAX_POLYGON)
-        py = np.empty(_MAX_POLYGON)
-        qx = np.empty(_MAX_POLYGON)
-        qy = np.empty(_MAX_POLYGON)
+        px = np.empty(MAX_POLYGON)
+        py = np.empty(MAX_POLYGON)
+        qx = np.empty(MAX_POLYGON)
+        qy = np.empty(MAX_POLYGON)
         parts = np.empty(_MAX_PARTS)
         masses = np.empty(4)
         counts = np.empty(4, np.int64)
@@ -534,5 +434,5 @@ class _OneCell:
     resolution = 1
 
 
-__all__ = ["specular_orders", "compile_model", "mesh_integrals", "tau_nodes", "tau_weights", "splat_triangle", "SpecularOrders", "is_specular",
+__all__ = ["specular_orders", "compile_model", "mesh_integrals", "tau_nodes", "tau_weights", "SpecularOrders", "is_specular",
            "DEFAULT_TOLERANCE"]
