@@ -12,6 +12,8 @@ from pathlib import Path
 
 import pytest
 
+from tests.cli import test_faults
+
 REPO = Path(__file__).resolve().parents[2]
 
 # a child compiling one cached function, its saves failing with the errno given
@@ -66,27 +68,15 @@ def test_other_errors_still_raise(tmp_path):
     assert child.returncode != 0 and "Input/output error" in child.stderr
 
 
+small_disk = test_faults.small_disk  # the fixture: a 256 kB tmpfs (root only)
+
+
 @pytest.fixture
-def full_disk(tmp_path):
-    """A 256 kB tmpfs filled to the last byte (root only): a real disk that is full."""
-    if os.geteuid() != 0:
-        pytest.skip("mounting a tmpfs needs root")
-    mount = tmp_path / "disk"
-    mount.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", "size=256k", "tmpfs", str(mount)],
-                          capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here: {done.stderr.strip()}")
-    try:
-        (mount / "cache").mkdir()
-        with open(mount / "filler", "wb") as filler:
-            try:
-                filler.write(b"\0" * (1 << 20))
-            except OSError:
-                pass
-        yield mount
-    finally:
-        subprocess.run(["umount", str(mount)], check=True)
+def full_disk(small_disk):
+    """That tmpfs with a cache folder, filled to the last byte: a real disk that is full."""
+    (small_disk / "cache").mkdir()
+    test_faults._leave_free(small_disk, 0)
+    return small_disk
 
 
 RUN = """[material]

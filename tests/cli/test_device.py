@@ -14,7 +14,6 @@
   the GPU, the CUDA driver and the runtime.
 """
 
-import importlib.util
 import json
 import os
 import subprocess
@@ -27,27 +26,11 @@ import pytest
 from vcavity import open_table
 from vcavity.cli import main
 
-HAVE_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+from tests.cli.device_support import CONFIG, HAVE_NUMBA_CUDA, NO_DEVICE, NOT_INSTALLED
+
 needs_numba_cuda = pytest.mark.skipif(not HAVE_NUMBA_CUDA,
                                       reason="numba-cuda is not installed (pip install 'vcavity[cuda]')")
 
-#: Two directions of three RNG blocks (the last one short), a small sensor: the default
-#: material (IL paper fig. 7b), the CUDA loop tests' first scene (tests/kernels/cuda_cases.py).
-CONFIG = """\
-[material]
-distribution = "beckmann"
-alpha = 0.6
-kd = 0.9
-eta = 1.5
-[incidence]
-theta_i_deg = [20, 70]
-paths = 8492
-[simulation]
-seed = 3
-max_order = 4
-max_bounces = 100
-sensor_resolution = 9
-{simulation}"""
 SWEEP = CONFIG + "[sweep]\nalpha = [0.3, 0.6]\n"
 
 
@@ -70,30 +53,7 @@ def _refused(tmp_path, capsys, argv) -> str:
     return lines[0][len("vcavity: error: "):]
 
 
-@pytest.fixture
-def no_numba_cuda(monkeypatch):
-    """numba-cuda as if not installed: importing the CUDA loop fails (``None`` in sys.modules)."""
-    import vcavity.kernels
-
-    monkeypatch.setitem(sys.modules, "vcavity.kernels.cuda_loop", None)
-    monkeypatch.delattr(vcavity.kernels, "cuda_loop", raising=False)
-
-
-@pytest.fixture
-def no_gpu(monkeypatch):
-    """numba-cuda installed, but no CUDA device or driver (as on this project's CI), even
-    where there is one or the simulator is on."""
-    if not HAVE_NUMBA_CUDA:  # (importorskip would error: the module raises ImportError, not ModuleNotFoundError)
-        pytest.skip("numba-cuda is not installed")
-    from vcavity.kernels import cuda_loop
-
-    monkeypatch.setattr(cuda_loop, "SIMULATED", False)
-    monkeypatch.setattr(cuda_loop.cuda, "is_available", lambda: False)
-
-
 WEIGHTED = "the paper estimator runs on the CPU only: its walk is weighted"
-NOT_INSTALLED = "numba-cuda is not installed: pip install 'vcavity[cuda]'"
-NO_DEVICE = "numba-cuda finds no CUDA device or driver here"
 
 
 @pytest.mark.parametrize("flags, simulation, words", [

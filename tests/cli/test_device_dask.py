@@ -15,7 +15,6 @@
   the table of ``run --device cuda`` bit for bit (units of one block, merged in order).
 """
 
-import importlib.util
 import os
 import subprocess
 import sys
@@ -28,25 +27,11 @@ from vcavity import config as config_mod
 from vcavity import open_table
 from vcavity.cli import main
 
-distributed = pytest.importorskip("distributed")
-HAVE_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+from tests.cli.device_support import CONFIG, HAVE_NUMBA_CUDA, NO_DEVICE, NOT_INSTALLED
 
-CONFIG = """\
-[material]
-distribution = "beckmann"
-alpha = 0.6
-kd = 0.9
-eta = 1.5
-[incidence]
-theta_i_deg = [20, 70]
-paths = 8492
-[simulation]
-seed = 3
-max_order = 4
-max_bounces = 100
-sensor_resolution = 9
-{simulation}"""
-REASONS = ("numba-cuda is not installed: pip install 'vcavity[cuda]'", "numba-cuda finds no CUDA device or driver here")
+distributed = pytest.importorskip("distributed")
+
+REASONS = (NOT_INSTALLED, NO_DEVICE)
 
 
 @pytest.mark.parametrize("command, written", [("run", "flag"), ("run", "config"), ("sweep", "flag")])

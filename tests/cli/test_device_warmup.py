@@ -11,7 +11,6 @@
 - ``gpu`` (skipped without a device): a second process loads what the first compiled.
 """
 
-import importlib.util
 import json
 import os
 import re
@@ -23,7 +22,8 @@ import pytest
 
 from vcavity.cli import main
 
-HAVE_NUMBA_CUDA = importlib.util.find_spec("numba_cuda") is not None
+from tests.cli.device_support import HAVE_NUMBA_CUDA
+
 needs_numba_cuda = pytest.mark.skipif(not HAVE_NUMBA_CUDA,
                                       reason="numba-cuda is not installed (pip install 'vcavity[cuda]')")
 CHILD = Path(__file__).with_name("cuda_warmup_child.py")
@@ -35,26 +35,6 @@ def _child(args, env, timeout=600):
                          timeout=timeout)
     assert out.returncode == 0, out.stderr[-4000:]
     return json.loads(out.stdout.splitlines()[-1])
-
-
-@pytest.fixture
-def no_numba_cuda(monkeypatch):
-    """numba-cuda as if not installed: importing the CUDA loop fails (``None`` in sys.modules)."""
-    import vcavity.kernels
-
-    monkeypatch.setitem(sys.modules, "vcavity.kernels.cuda_loop", None)
-    monkeypatch.delattr(vcavity.kernels, "cuda_loop", raising=False)
-
-
-@pytest.fixture
-def no_gpu(monkeypatch):
-    """numba-cuda installed, but no CUDA device or driver (even where there is one)."""
-    if not HAVE_NUMBA_CUDA:
-        pytest.skip("numba-cuda is not installed")
-    from vcavity.kernels import cuda_loop
-
-    monkeypatch.setattr(cuda_loop, "SIMULATED", False)
-    monkeypatch.setattr(cuda_loop.cuda, "is_available", lambda: False)
 
 
 def _refused(capsys, argv) -> str:
